@@ -1,0 +1,120 @@
+// CrowdHealth — the component interface: cost functions and forces (DESIGN §2).
+//
+// STEP CONTRACT — read this before writing a component.
+//  * Every call sees the *frozen* state of the previous step through StepContext: positions,
+//    velocities and measurements of all agents are those at the start of the step, and no
+//    component may modify them. A component returns a value for ONE agent (the `AgentQuery`
+//    agent); the simulation writes it into that agent's slot of the next state (double buffer).
+//  * `prepare()` runs once per step before any per-agent call, on one thread at a time per
+//    component; it may fill the component's own per-agent arrays (e.g. SPH density), and may use
+//    OpenMP inside as long as each iteration writes only its own agent's slot.
+//  * Per-agent calls run in parallel; they must be `const` and thread-safe, and must draw random
+//    numbers only through `ctx.rng(query, stream)`, never from a shared generator.
+//  Results therefore depend neither on agent order nor on the number of threads.
+#pragma once
+
+#include "crowdhealth/agents.h"
+#include "crowdhealth/grid.h"
+#include "crowdhealth/params.h"
+#include "crowdhealth/rng.h"
+#include "crowdhealth/types.h"
+#include "crowdhealth/world.h"
+
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace ch {
+
+struct ComponentInfo;
+
+/// A neighbouring agent of the query agent.
+struct NeighbourAgent {
+    int index;      ///< index j in AgentStore
+    Vec2 offset;    ///< pos[j] - pos[i], shortest on a torus (m)
+    double distance;  ///< |offset| (m)
+};
+
+/// The agent being evaluated, with its neighbourhood gathered once per step (within the largest
+/// range of the step's components). Components with a smaller range filter by `distance`.
+struct AgentQuery {
+    int i = 0;
+    Vec2 position{0, 0}, velocity{0, 0}, prefVelocity{0, 0};
+    double radius = 0, prefSpeed = 0, maxSpeed = 0, maxAcceleration = 0, mass = 1;
+    std::vector<NeighbourAgent> agents;  ///< other agents (not i), ascending index
+    std::vector<int> segments;           ///< indices into World::segments(), ascending
+};
+
+/// Read-only view of the frozen state handed to every component call.
+struct StepContext {
+    const AgentStore& agents;
+    const World& world;
+    const PointGrid& grid;   ///< agent positions of this step
+    double dt;               ///< length of this step (coarse or fine), s
+    double time;             ///< simulated time at the start of the step, s
+    std::uint64_t stepIndex; ///< number of fine steps done so far (for random streams)
+    std::uint64_t seed;      ///< the run's seed
+    double relaxationTime;   ///< the evaluating policy step's RelaxationTime, s
+
+    /// A random stream private to (agent, step, stream): same numbers whatever the thread count.
+    Rng rng(const AgentQuery& q, std::uint64_t stream) const {
+        return Rng(seed, static_cast<std::uint64_t>(agents.id[q.i]), stepIndex, stream);
+    }
+};
+
+enum class ComponentKind { CostFunction, Force };
+
+/// Base of every cost function and force. Subclasses bind their parameters in the constructor
+/// with `bind()`, so schedules can change them while running (`setParameter`).
+class Component {
+public:
+    virtual ~Component() = default;
+
+    /// Interaction range (m): neighbours farther than this are ignored. Parameter `range`.
+    double range() const { return range_; }
+
+    /// Once per step, before the per-agent calls (see the step contract).
+    virtual void prepare(const StepContext& ctx) { (void)ctx; }
+
+    /// Cost of candidate velocity v (m/s) for the query agent; lower is better.
+    virtual double cost(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const = 0;
+    /// Gradient of cost with respect to v. Default: central differences with δ = 0.1 m/s (UMANS).
+    virtual Vec2 gradient(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const;
+    /// The velocity of minimum cost in closed form, where the model has one.
+    virtual std::optional<Vec2> globalMinimum(const AgentQuery& q, const StepContext& ctx) const {
+        (void)q; (void)ctx;
+        return std::nullopt;
+    }
+
+    /// Changes a bound parameter while running. Returns false if the name is not bound.
+    bool setParameter(const std::string& name, double value);
+    /// Current value of a bound parameter (NaN if not bound).
+    double parameter(const std::string& name) const;
+
+    /// Per-agent scalar this component wants recorded (e.g. "rest_density"); empty if none.
+    virtual const std::vector<double>* field(const std::string& name) const { (void)name; return nullptr; }
+
+protected:
+    /// Reads `name` from params into `member` and remembers it for setParameter().
+    void bind(const ParamSet& params, const std::string& name, double& member);
+    double range_ = 5.0;
+
+private:
+    std::map<std::string, double*> bound_;
+};
+
+/// A force: an acceleration contribution. Usable wherever a cost function is (UMANS' force-based
+/// cost): target velocity v_t = v + a·dt, cost(v') = |v' - v_t|²/(2·dt), whose gradient at the
+/// current velocity is -a, and whose global minimum is v_t.
+class ForceComponent : public Component {
+public:
+    /// Acceleration (m/s²) on the query agent from the frozen state.
+    virtual Vec2 acceleration(const AgentQuery& q, const StepContext& ctx) const = 0;
+
+    double cost(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const override;
+    Vec2 gradient(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const override;
+    std::optional<Vec2> globalMinimum(const AgentQuery& q, const StepContext& ctx) const override;
+};
+
+}  // namespace ch

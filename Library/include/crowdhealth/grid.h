@@ -1,0 +1,104 @@
+// CrowdHealth — uniform-grid neighbour search (cell = largest interaction range, std::floor
+// indexing, rebuilt each step with a counting sort), for agents and for static wall segments.
+#pragma once
+
+#include "crowdhealth/geometry.h"
+#include "crowdhealth/types.h"
+
+#include <cmath>
+#include <vector>
+
+namespace ch {
+
+/// Points (agent positions) bucketed in square cells. Supports a toric (periodic) domain.
+class PointGrid {
+public:
+    /// Rebuilds the grid over `points`. `cellSize` > 0 should be the largest query radius.
+    /// If `periodic`, the domain is [-width/2, width/2) × [-height/2, height/2) and queries wrap.
+    void build(const std::vector<Vec2>& points, double cellSize, bool periodic = false, double width = 0,
+               double height = 0);
+
+    /// Calls f(j, offset, distSq) for every point j with |offset| <= radius, where offset is
+    /// (points[j] - p), the shortest such vector on a torus. The query point's own index is not
+    /// skipped: callers that need "others only" compare j themselves. Visit order is deterministic.
+    template <class F>
+    void forEachWithin(const Vec2& p, double radius, F&& f) const;
+
+    /// Collects the indices within radius (for tests and simple callers).
+    std::vector<int> within(const Vec2& p, double radius) const;
+
+    double cellSize() const { return cell_; }
+
+private:
+    const std::vector<Vec2>* points_ = nullptr;
+    double cell_ = 1;
+    bool periodic_ = false;
+    double width_ = 0, height_ = 0;
+    Vec2 origin_{0, 0};
+    int nx_ = 1, ny_ = 1;
+    std::vector<int> cellStart_;  ///< size nx*ny+1, counting-sort offsets
+    std::vector<int> sorted_;     ///< point indices, grouped by cell
+
+    int cellX(double x) const { return static_cast<int>(std::floor((x - origin_.x()) / cell_)); }
+    int cellY(double y) const { return static_cast<int>(std::floor((y - origin_.y()) / cell_)); }
+};
+
+/// Static wall segments bucketed in square cells (built once).
+class SegmentGrid {
+public:
+    void build(const std::vector<Segment>& segments, double cellSize);
+    /// Indices of the segments that come within `radius` of p (each once, ascending).
+    void near(const Vec2& p, double radius, std::vector<int>& out) const;
+    bool empty() const { return segments_ == nullptr || segments_->empty(); }
+
+private:
+    const std::vector<Segment>* segments_ = nullptr;
+    double cell_ = 1;
+    Vec2 origin_{0, 0};
+    int nx_ = 0, ny_ = 0;
+    std::vector<std::vector<int>> cells_;
+};
+
+// ---- template implementation -------------------------------------------------------------
+
+template <class F>
+void PointGrid::forEachWithin(const Vec2& p, double radius, F&& f) const {
+    if (points_ == nullptr || points_->empty()) return;
+    const std::vector<Vec2>& pts = *points_;
+    const double r2 = radius * radius;
+    const int reach = static_cast<int>(std::ceil(radius / cell_));
+    const int cx = cellX(p.x()), cy = cellY(p.y());
+    if (!periodic_) {
+        const int x0 = std::max(0, cx - reach), x1 = std::min(nx_ - 1, cx + reach);
+        const int y0 = std::max(0, cy - reach), y1 = std::min(ny_ - 1, cy + reach);
+        for (int y = y0; y <= y1; ++y)
+            for (int x = x0; x <= x1; ++x) {
+                const int c = y * nx_ + x;
+                for (int k = cellStart_[c]; k < cellStart_[c + 1]; ++k) {
+                    const int j = sorted_[k];
+                    const Vec2 d = pts[j] - p;
+                    const double d2 = d.squaredNorm();
+                    if (d2 <= r2) f(j, d, d2);
+                }
+            }
+        return;
+    }
+    // Periodic: visit each distinct wrapped cell once, then use the minimum-image offset.
+    const int sx = std::min(2 * reach + 1, nx_), sy = std::min(2 * reach + 1, ny_);
+    for (int oy = 0; oy < sy; ++oy)
+        for (int ox = 0; ox < sx; ++ox) {
+            const int x = ((cx - reach + ox) % nx_ + nx_) % nx_;
+            const int y = ((cy - reach + oy) % ny_ + ny_) % ny_;
+            const int c = y * nx_ + x;
+            for (int k = cellStart_[c]; k < cellStart_[c + 1]; ++k) {
+                const int j = sorted_[k];
+                Vec2 d = pts[j] - p;
+                d.x() -= width_ * std::round(d.x() / width_);
+                d.y() -= height_ * std::round(d.y() / height_);
+                const double d2 = d.squaredNorm();
+                if (d2 <= r2) f(j, d, d2);
+            }
+        }
+}
+
+}  // namespace ch

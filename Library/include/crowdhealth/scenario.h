@@ -1,0 +1,128 @@
+// CrowdHealth — ScenarioSpec: the plain description of a run that the XML loader produces.
+// No XML type appears past this point (DESIGN §2); tests and embedding programs can build a
+// ScenarioSpec by hand.
+#pragma once
+
+#include "crowdhealth/diagnostics.h"
+#include "crowdhealth/params.h"
+#include "crowdhealth/types.h"
+
+#include <array>
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace ch {
+
+enum class WorldType {
+    Infinite,  ///< unbounded plane (UMANS 1.x)
+    Toric,     ///< wraps around in x and y; neighbours are found across the border (UMANS 1.x)
+    Planar     ///< bounded rectangle [xmin,xmax]×[ymin,ymax]; agents that leave it are removed
+};
+
+struct WorldSpec {
+    WorldType type = WorldType::Infinite;
+    double width = 0, height = 0;  ///< Toric: period in x and y (m), the world spans [-w/2, w/2)
+    double xmin = 0, xmax = 0, ymin = 0, ymax = 0;  ///< Planar bounds (m)
+    SourceLoc loc;
+};
+
+/// A closed polygon obstacle (UMANS <Obstacle>); its edges become wall segments.
+struct ObstacleSpec {
+    std::vector<Vec2> points;  ///< vertices in order (m); the polygon is closed implicitly
+    /// Static SPH boundary particles packed inside (from <Box particles="true">); empty otherwise.
+    std::vector<Vec2> particles;
+    SourceLoc loc;
+};
+
+enum class OptimisationMethod { Gradient, Sampling, Global };
+enum class StepTiming { Coarse, Fine };
+
+/// UMANS' sampling settings (attributes of <Policy> or <Step>).
+struct SamplingSpec {
+    enum class Type { Regular, Random } type = Type::Regular;
+    enum class Base { Zero, CurrentVelocity } base = Base::Zero;
+    enum class BaseDirection { Unit, CurrentVelocity, PreferredVelocity } baseDirection =
+        BaseDirection::CurrentVelocity;
+    enum class Radius { PreferredSpeed, MaximumSpeed, MaximumAcceleration } radius = Radius::PreferredSpeed;
+    double angle = 360;        ///< full opening angle of the sampled cone (degrees)
+    int speedSamples = 3;      ///< regular sampling: rings
+    int angleSamples = 11;     ///< regular sampling: directions per ring
+    int randomSamples = 100;   ///< random sampling: samples per agent per step
+    bool includeBaseAsSample = false;
+};
+
+/// One cost function or force inside a step, with its weight (`coeff`) and parameters.
+struct ComponentSpec {
+    std::string name;       ///< registered name, e.g. "SocialForcesAvoidance"
+    double coeff = 1.0;     ///< weight in the step's sum (UMANS `coeff`)
+    ParamSet params;        ///< every parameter of the component's table, defaults filled in
+    SourceLoc loc;
+};
+
+/// A policy step: an optimisation method over a weighted list of components, on a time step.
+struct StepSpec {
+    StepTiming timing = StepTiming::Coarse;
+    OptimisationMethod method = OptimisationMethod::Gradient;
+    double relaxationTime = 0;  ///< s; 0 = reach the optimum within one step (UMANS)
+    bool stopAtGoal = true;     ///< agents that reached their goal stand still (UMANS behaviour)
+    SamplingSpec sampling;
+    std::vector<ComponentSpec> components;
+    SourceLoc loc;
+};
+
+struct PolicySpec {
+    int id = 0;
+    std::string name;
+    std::vector<StepSpec> steps;
+    /// UMANS' post-clamp contact force stiffness (N/m per unit mass, applied after the
+    /// acceleration clamp); 0 disables it.
+    double contactForceScale = 62.5;
+    SourceLoc loc;
+};
+
+struct AgentSpec {
+    AgentId id = -1;            ///< -1: assigned automatically (next free id, in file order)
+    Vec2 position{0, 0};        ///< m
+    std::optional<Vec2> goal;   ///< m; absent: the agent stays where it is (UMANS warns)
+    double radius = 0.24;       ///< m
+    double prefSpeed = 1.4;     ///< m/s
+    double maxSpeed = 1.8;      ///< m/s
+    double maxAcceleration = 5.0;  ///< m/s²
+    double mass = 1.0;          ///< dimensionless body-mass factor (van Toll: (rad/0.24)²)
+    bool removeAtGoal = false;
+    double goalRadius = -1;     ///< m; < 0 means "the agent's radius" (UMANS)
+    double startTime = 0;       ///< s; the agent appears at this time
+    int policyId = 0;
+    std::optional<std::array<int, 3>> color;  ///< RGB 0..255 for viewers
+    SourceLoc loc;
+};
+
+struct OutputSpec {
+    double metricsInterval = 1.0;     ///< s between rows of metrics.csv
+    std::string trajectories = "none";  ///< "umans", "txt", "both" or "none"
+    int flowFirst = 1, flowLast = 350;  ///< flow is measured from the Nth to the Mth evacuee
+    SourceLoc loc;
+};
+
+/// Everything needed to build a Simulation.
+struct ScenarioSpec {
+    std::string sourceFile;   ///< the main XML file (for messages and summaries)
+    double deltaTime = 0.1;   ///< coarse step (s)
+    double deltaTimeFine = 0; ///< fine step (s); 0 = same as deltaTime
+    double endTime = -1;      ///< s; < 0 = run until every agent has left (or --end-time)
+    std::uint64_t seed = 1;
+    WorldSpec world;
+    std::vector<ObstacleSpec> obstacles;
+    std::vector<PolicySpec> policies;
+    std::vector<AgentSpec> agents;
+    OutputSpec output;
+
+    double fineStep() const { return deltaTimeFine > 0 ? deltaTimeFine : deltaTime; }
+    /// Number of fine steps per coarse step (validated by the loader to be a whole number).
+    int fineStepsPerCoarse() const;
+};
+
+}  // namespace ch

@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# Installs the Debian packages CrowdHealth needs (when missing), configures CMake in Release
+# into build/ and builds. Called by demo.sh and test.sh; safe to run again.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+PACKAGES=(g++ cmake make pkg-config libtinyxml2-dev libeigen3-dev libboost-program-options-dev
+          libboost-test-dev libgnuplot-iostream-dev libboost-iostreams-dev libboost-system-dev
+          libboost-filesystem-dev gnuplot-nox)
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+  echo "setup: installing ${missing[*]}"
+  SUDO=""
+  if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${missing[@]}"
+fi
+
+JOBS="${JOBS:-$(nproc)}"
+cmake -S . -B build -DCMAKE_BUILD_TYPE=Release "$@"
+cmake --build build -j "$JOBS"
