@@ -42,7 +42,7 @@ struct AgentQuery {
     int i = 0;
     Vec2 position{0, 0}, velocity{0, 0}, prefVelocity{0, 0};
     double radius = 0, prefSpeed = 0, maxSpeed = 0, maxAcceleration = 0, mass = 1;
-    std::vector<NeighbourAgent> agents;  ///< other agents (not i), ascending index
+    std::vector<NeighbourAgent> agents;  ///< other agents (not i), in a fixed (grid) order
     std::vector<int> segments;           ///< indices into World::segments(), ascending
 };
 

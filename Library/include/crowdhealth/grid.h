@@ -27,11 +27,12 @@ public:
     /// Collects the indices within radius (for tests and simple callers).
     std::vector<int> within(const Vec2& p, double radius) const;
 
-    double cellSize() const { return cell_; }
+    /// Cell width (x) actually used (≥ the requested size; larger for far-flung points).
+    double cellSize() const { return cw_; }
 
 private:
     const std::vector<Vec2>* points_ = nullptr;
-    double cell_ = 1;
+    double cw_ = 1, ch_ = 1;  ///< cell width and height (m); equal except on a torus
     bool periodic_ = false;
     double width_ = 0, height_ = 0;
     Vec2 origin_{0, 0};
@@ -39,8 +40,8 @@ private:
     std::vector<int> cellStart_;  ///< size nx*ny+1, counting-sort offsets
     std::vector<int> sorted_;     ///< point indices, grouped by cell
 
-    int cellX(double x) const { return static_cast<int>(std::floor((x - origin_.x()) / cell_)); }
-    int cellY(double y) const { return static_cast<int>(std::floor((y - origin_.y()) / cell_)); }
+    int cellX(double x) const { return static_cast<int>(std::floor((x - origin_.x()) / cw_)); }
+    int cellY(double y) const { return static_cast<int>(std::floor((y - origin_.y()) / ch_)); }
 };
 
 /// Static wall segments bucketed in square cells (built once).
@@ -66,11 +67,12 @@ void PointGrid::forEachWithin(const Vec2& p, double radius, F&& f) const {
     if (points_ == nullptr || points_->empty()) return;
     const std::vector<Vec2>& pts = *points_;
     const double r2 = radius * radius;
-    const int reach = static_cast<int>(std::ceil(radius / cell_));
+    const int rx = static_cast<int>(std::ceil(radius / cw_));
+    const int ry = static_cast<int>(std::ceil(radius / ch_));
     const int cx = cellX(p.x()), cy = cellY(p.y());
     if (!periodic_) {
-        const int x0 = std::max(0, cx - reach), x1 = std::min(nx_ - 1, cx + reach);
-        const int y0 = std::max(0, cy - reach), y1 = std::min(ny_ - 1, cy + reach);
+        const int x0 = std::max(0, cx - rx), x1 = std::min(nx_ - 1, cx + rx);
+        const int y0 = std::max(0, cy - ry), y1 = std::min(ny_ - 1, cy + ry);
         for (int y = y0; y <= y1; ++y)
             for (int x = x0; x <= x1; ++x) {
                 const int c = y * nx_ + x;
@@ -84,11 +86,12 @@ void PointGrid::forEachWithin(const Vec2& p, double radius, F&& f) const {
         return;
     }
     // Periodic: visit each distinct wrapped cell once, then use the minimum-image offset.
-    const int sx = std::min(2 * reach + 1, nx_), sy = std::min(2 * reach + 1, ny_);
+    // (With radius > half a period only the nearest image of each point is reported.)
+    const int sx = std::min(2 * rx + 1, nx_), sy = std::min(2 * ry + 1, ny_);
     for (int oy = 0; oy < sy; ++oy)
         for (int ox = 0; ox < sx; ++ox) {
-            const int x = ((cx - reach + ox) % nx_ + nx_) % nx_;
-            const int y = ((cy - reach + oy) % ny_ + ny_) % ny_;
+            const int x = ((cx - rx + ox) % nx_ + nx_) % nx_;
+            const int y = ((cy - ry + oy) % ny_ + ny_) % ny_;
             const int c = y * nx_ + x;
             for (int k = cellStart_[c]; k < cellStart_[c + 1]; ++k) {
                 const int j = sorted_[k];

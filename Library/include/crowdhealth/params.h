@@ -21,6 +21,10 @@ struct ParamSpec {
     std::string description;
     ParamType type = ParamType::Real;
     std::vector<std::string> choices;  ///< allowed words for Choice parameters
+    /// The range excludes `min` (resp. `max`) itself, e.g. a radius in (0, 10] m. Set these after
+    /// a factory call for strictly positive quantities instead of inventing a tiny minimum.
+    bool minExclusive = false;
+    bool maxExclusive = false;
 
     static ParamSpec real(std::string name, std::string unit, double def, double min, double max,
                           std::string description);

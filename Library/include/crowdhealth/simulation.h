@@ -94,11 +94,14 @@ private:
     std::size_t nextPending_ = 0;
     std::vector<Evacuation> evacuations_;
     std::size_t leftWorld_ = 0;
-    double maxRange_ = 1.0;
+    double maxRange_ = 1.0;                ///< grid cell size: the largest neighbourhood radius
+    double maxRadius_ = 0;                 ///< largest agent radius (m)
+    std::vector<double> policyRange_;      ///< neighbourhood radius per policy (m)
+    std::vector<int> agentPolicy_;         ///< policy index per spec agent
 
     // per-step buffers (index = agent)
     std::vector<Vec2> heldAccel_;  ///< coarse-step acceleration, held over the coarse step
-    std::vector<Vec2> nextPos_, nextVel_, nextView_;
+    std::vector<Vec2> nextPos_, nextVel_, nextView_, nextContact_;
 };
 
 }  // namespace ch

@@ -4,14 +4,22 @@
 #include "crowdhealth/diagnostics.h"
 #include "crowdhealth/scenario.h"
 
+#include <cstdint>
 #include <optional>
 #include <string>
 
 namespace ch {
 
+struct LoadOptions {
+    /// Overrides Simulation@seed (used by --seed and replications). Generated agents
+    /// (<AgentGrid>, <SpawnRectangle>) draw their random radii/noise from the final seed.
+    std::optional<std::uint64_t> seed;
+};
+
 /// Loads a scenario file and every file it names (relative paths resolve against the file that
 /// names them). Every problem found is added to `diags` as `path:line: error: …`; returns
 /// std::nullopt when there was at least one error. Nothing is simulated or written.
-std::optional<ScenarioSpec> loadScenario(const std::string& path, Diagnostics& diags);
+std::optional<ScenarioSpec> loadScenario(const std::string& path, Diagnostics& diags,
+                                         const LoadOptions& options = {});
 
 }  // namespace ch

@@ -1,0 +1,69 @@
+// CrowdHealth — the agent columns.
+#include "crowdhealth/agents.h"
+
+#include "crowdhealth/scenario.h"
+
+namespace ch {
+
+std::size_t AgentStore::add(const AgentSpec& s, int policyIndex) {
+    id.push_back(s.id);
+    policy.push_back(policyIndex);
+    radius.push_back(s.radius);
+    prefSpeed.push_back(s.prefSpeed);
+    maxSpeed.push_back(s.maxSpeed);
+    maxAcceleration.push_back(s.maxAcceleration);
+    mass.push_back(s.mass);
+    goalRadius.push_back(s.goalRadius >= 0 ? s.goalRadius : s.radius);
+    removeAtGoal.push_back(s.removeAtGoal ? 1 : 0);
+    hasGoal.push_back(s.goal ? 1 : 0);
+    goal.push_back(s.goal ? *s.goal : s.position);
+    pos.push_back(s.position);
+    vel.push_back(Vec2(0, 0));
+    prefVel.push_back(Vec2(0, 0));
+    // UMANS: an agent starts looking towards its goal.
+    const Vec2 toGoal = goal.back() - s.position;
+    viewDir.push_back(toGoal.squaredNorm() > 0 ? Vec2(toGoal.normalized()) : Vec2(1, 0));
+    density.push_back(0.0);
+    contactAccel.push_back(Vec2(0, 0));
+    return id.size() - 1;
+}
+
+namespace {
+template <class T>
+void compact(std::vector<T>& v, const std::vector<unsigned char>& remove) {
+    std::size_t w = 0;
+    for (std::size_t r = 0; r < v.size(); ++r)
+        if (!remove[r]) {
+            if (w != r) v[w] = std::move(v[r]);
+            ++w;
+        }
+    v.resize(w);
+}
+}  // namespace
+
+void AgentStore::removeMarked(const std::vector<unsigned char>& remove) {
+    compact(id, remove);
+    compact(policy, remove);
+    compact(radius, remove);
+    compact(prefSpeed, remove);
+    compact(maxSpeed, remove);
+    compact(maxAcceleration, remove);
+    compact(mass, remove);
+    compact(goalRadius, remove);
+    compact(removeAtGoal, remove);
+    compact(hasGoal, remove);
+    compact(goal, remove);
+    compact(pos, remove);
+    compact(vel, remove);
+    compact(prefVel, remove);
+    compact(viewDir, remove);
+    compact(density, remove);
+    compact(contactAccel, remove);
+}
+
+bool AgentStore::atGoal(std::size_t i) const {
+    if (!hasGoal[i]) return true;
+    return (goal[i] - pos[i]).squaredNorm() <= goalRadius[i] * goalRadius[i];
+}
+
+}  // namespace ch

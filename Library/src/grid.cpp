@@ -1,0 +1,128 @@
+// CrowdHealth — uniform-grid neighbour search.
+#include "crowdhealth/grid.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace ch {
+
+namespace {
+// Cap on the number of cells: beyond it the cell size grows (sparse, far-flung agents such as
+// UMANS' goals at x = 50 km would otherwise ask for millions of empty cells).
+constexpr long long kMaxCells = 1 << 22;
+}  // namespace
+
+void PointGrid::build(const std::vector<Vec2>& points, double cellSize, bool periodic, double width,
+                      double height) {
+    points_ = &points;
+    periodic_ = periodic;
+    width_ = width;
+    height_ = height;
+    const double cell = cellSize > 0 ? cellSize : 1.0;
+    if (periodic_) {
+        // A whole number of cells per period, each at least `cell` wide and high.
+        nx_ = std::max(1, static_cast<int>(std::floor(width_ / cell)));
+        ny_ = std::max(1, static_cast<int>(std::floor(height_ / cell)));
+        cw_ = width_ / nx_;
+        ch_ = height_ / ny_;
+        origin_ = Vec2(-0.5 * width_, -0.5 * height_);
+    } else {
+        Vec2 lo(0, 0), hi(0, 0);
+        if (!points.empty()) {
+            lo = hi = points[0];
+            for (const Vec2& p : points) {
+                lo = lo.cwiseMin(p);
+                hi = hi.cwiseMax(p);
+            }
+        }
+        cw_ = cell;
+        for (;;) {
+            nx_ = static_cast<int>(std::floor((hi.x() - lo.x()) / cw_)) + 1;
+            ny_ = static_cast<int>(std::floor((hi.y() - lo.y()) / cw_)) + 1;
+            if (static_cast<long long>(nx_) * ny_ <= kMaxCells) break;
+            cw_ *= 2;
+        }
+        ch_ = cw_;
+        origin_ = lo;
+    }
+    const int ncells = nx_ * ny_;
+    cellStart_.assign(ncells + 1, 0);
+    std::vector<int> cellOf(points.size());
+    for (std::size_t i = 0; i < points.size(); ++i) {
+        int x = cellX(points[i].x()), y = cellY(points[i].y());
+        if (periodic_) {
+            x = ((x % nx_) + nx_) % nx_;
+            y = ((y % ny_) + ny_) % ny_;
+        } else {
+            x = std::clamp(x, 0, nx_ - 1);
+            y = std::clamp(y, 0, ny_ - 1);
+        }
+        cellOf[i] = y * nx_ + x;
+        ++cellStart_[cellOf[i] + 1];
+    }
+    for (int c = 0; c < ncells; ++c) cellStart_[c + 1] += cellStart_[c];
+    sorted_.resize(points.size());
+    std::vector<int> fill(cellStart_.begin(), cellStart_.end() - 1);
+    // Counting sort, stable: within a cell, indices stay ascending.
+    for (std::size_t i = 0; i < points.size(); ++i) sorted_[fill[cellOf[i]]++] = static_cast<int>(i);
+}
+
+std::vector<int> PointGrid::within(const Vec2& p, double radius) const {
+    std::vector<int> out;
+    forEachWithin(p, radius, [&](int j, const Vec2&, double) { out.push_back(j); });
+    std::sort(out.begin(), out.end());
+    return out;
+}
+
+void SegmentGrid::build(const std::vector<Segment>& segments, double cellSize) {
+    segments_ = &segments;
+    cells_.clear();
+    nx_ = ny_ = 0;
+    if (segments.empty()) return;
+    cell_ = cellSize > 0 ? cellSize : 1.0;
+    Vec2 lo = segments[0].a, hi = segments[0].a;
+    for (const Segment& s : segments) {
+        lo = lo.cwiseMin(s.a).cwiseMin(s.b);
+        hi = hi.cwiseMax(s.a).cwiseMax(s.b);
+    }
+    for (;;) {
+        nx_ = static_cast<int>(std::floor((hi.x() - lo.x()) / cell_)) + 1;
+        ny_ = static_cast<int>(std::floor((hi.y() - lo.y()) / cell_)) + 1;
+        if (static_cast<long long>(nx_) * ny_ <= kMaxCells) break;
+        cell_ *= 2;
+    }
+    origin_ = lo;
+    cells_.assign(static_cast<std::size_t>(nx_) * ny_, {});
+    for (std::size_t k = 0; k < segments.size(); ++k) {
+        const Segment& s = segments[k];
+        // Register the segment in every cell its bounding box touches (conservative).
+        const Vec2 a = s.a.cwiseMin(s.b), b = s.a.cwiseMax(s.b);
+        const int x0 = static_cast<int>(std::floor((a.x() - origin_.x()) / cell_));
+        const int x1 = static_cast<int>(std::floor((b.x() - origin_.x()) / cell_));
+        const int y0 = static_cast<int>(std::floor((a.y() - origin_.y()) / cell_));
+        const int y1 = static_cast<int>(std::floor((b.y() - origin_.y()) / cell_));
+        for (int y = std::max(0, y0); y <= std::min(ny_ - 1, y1); ++y)
+            for (int x = std::max(0, x0); x <= std::min(nx_ - 1, x1); ++x)
+                cells_[static_cast<std::size_t>(y) * nx_ + x].push_back(static_cast<int>(k));
+    }
+}
+
+void SegmentGrid::near(const Vec2& p, double radius, std::vector<int>& out) const {
+    out.clear();
+    if (empty()) return;
+    const int x0 = std::max(0, static_cast<int>(std::floor((p.x() - radius - origin_.x()) / cell_)));
+    const int x1 = std::min(nx_ - 1, static_cast<int>(std::floor((p.x() + radius - origin_.x()) / cell_)));
+    const int y0 = std::max(0, static_cast<int>(std::floor((p.y() - radius - origin_.y()) / cell_)));
+    const int y1 = std::min(ny_ - 1, static_cast<int>(std::floor((p.y() + radius - origin_.y()) / cell_)));
+    const double r2 = radius * radius;
+    for (int y = y0; y <= y1; ++y)
+        for (int x = x0; x <= x1; ++x)
+            for (int k : cells_[static_cast<std::size_t>(y) * nx_ + x]) {
+                const Segment& s = (*segments_)[k];
+                if (distanceToSegmentSquared(p, s.a, s.b) <= r2) out.push_back(k);
+            }
+    std::sort(out.begin(), out.end());
+    out.erase(std::unique(out.begin(), out.end()), out.end());
+}
+
+}  // namespace ch

@@ -1,0 +1,89 @@
+// CrowdHealth — SocialForcesAvoidance (Helbing & Molnár 1995).
+#include "SocialForcesAvoidance.h"
+
+#include <cmath>
+
+namespace ch {
+
+CH_REGISTER_COMPONENT(SocialForcesAvoidance);
+
+ComponentInfo SocialForcesAvoidance::Info() {
+    ComponentInfo info;
+    info.name = "SocialForcesAvoidance";
+    info.kind = ComponentKind::Force;
+    info.summary = "repulsive social forces from pedestrians (elliptic potential) and walls";
+    info.reference = "Helbing & Molnar 1995, Social force model for pedestrian dynamics, Phys. Rev. E 51(5):4282";
+    info.params = {
+        ParamSpec::real("dt", "s", 2.0, 0.0, 60.0, "time horizon of the other's step in the elliptic potential (eq. 4)"),
+        ParamSpec::real("V0", "m2/s2", 2.1, 0.0, 1e4, "strength of the pedestrian repulsion potential (eq. 13)"),
+        ParamSpec::real("sigma", "m", 0.3, 1e-6, 100.0, "decay length of the pedestrian potential (eq. 13)"),
+        ParamSpec::real("U0", "m2/s2", 10.0, 0.0, 1e4, "strength of the wall repulsion potential (eq. 13)"),
+        ParamSpec::real("R", "m", 0.2, 1e-6, 100.0, "decay length of the wall potential (eq. 13)"),
+        ParamSpec::real("fov", "deg", 100.0, 0.0, 180.0, "half-angle of the field of view (eq. 8)"),
+        ParamSpec::real("behind", "-", 0.5, 0.0, 1.0, "weight of interactions outside the field of view (eq. 8)"),
+    };
+    info.create = [](const ParamSet& p) { return std::make_unique<SocialForcesAvoidance>(p); };
+    return info;
+}
+
+SocialForcesAvoidance::SocialForcesAvoidance(const ParamSet& params) {
+    bind(params, "range", range_);
+    bind(params, "dt", dt_);
+    bind(params, "V0", V0_);
+    bind(params, "sigma", sigma_);
+    bind(params, "U0", U0_);  // UMANS reads U0 into V0 by mistake; we keep them apart
+    bind(params, "R", R_);
+    bind(params, "fov", fovDeg_);
+    bind(params, "behind", behind_);
+}
+
+Vec2 SocialForcesAvoidance::pairForce(const Vec2& R, double vb, const Vec2& eb) const {
+    const double magR = R.norm();
+    const Vec2 step = vb * dt_ * eb;
+    const Vec2 R2 = R - step;
+    const double magR2 = R2.norm();
+    const double sum = magR + magR2;
+    const double twoBSquared = sum * sum - step.squaredNorm();  // (2b)²
+    if (twoBSquared <= 0 || magR < 1e-9 || magR2 < 1e-9) return {0, 0};
+    const double b = 0.5 * std::sqrt(twoBSquared);
+    if (b < 1e-3) return {0, 0};
+    // ∇_R b = (|R| + |R−s|)/(4b) · (R/|R| + (R−s)/|R−s|); f = −dV/db ∇b = V0/σ e^{−b/σ} ∇b.
+    const Vec2 gradB = sum / (4.0 * b) * (R / magR + R2 / magR2);
+    return V0_ / sigma_ * std::exp(-b / sigma_) * gradB;
+}
+
+Vec2 SocialForcesAvoidance::wallForce(const Vec2& diff) const {
+    const double d = diff.norm();
+    if (d < 1e-3) return {0, 0};
+    return U0_ / R_ * std::exp(-d / R_) * (diff / d);
+}
+
+Vec2 SocialForcesAvoidance::acceleration(const AgentQuery& q, const StepContext& ctx) const {
+    const AgentStore& A = ctx.agents;
+    // Walking direction for the field of view: the velocity, or the preferred one when at rest.
+    Vec2 heading = normalisedOrZero(q.velocity);
+    if (heading.squaredNorm() == 0) heading = normalisedOrZero(q.prefVelocity);
+    const double cosFov = std::cos(fovDeg_ * kPi / 180.0);
+
+    Vec2 f(0, 0);
+    for (const NeighbourAgent& n : q.agents) {
+        if (n.distance > range_) continue;
+        if (n.distance <= q.radius + A.radius[n.index]) continue;  // in contact: contact forces act
+        const Vec2 R = -n.offset;  // from the neighbour to us
+        const Vec2 eb = normalisedOrZero(A.prefVel[n.index]);
+        const double vb = A.vel[n.index].norm();
+        Vec2 fj = pairForce(R, vb, eb);
+        // Eq. 8: full weight when the neighbour is within the field of view.
+        const bool inView = heading.squaredNorm() == 0 || heading.dot(n.offset / n.distance) >= cosFov;
+        f += (inView ? 1.0 : behind_) * fj;
+    }
+    for (int s : q.segments) {
+        const Segment& seg = ctx.world.segments()[s];
+        const Vec2 diff = q.position - closestPointOnSegment(q.position, seg.a, seg.b);
+        if (diff.norm() > range_) continue;
+        f += wallForce(diff);
+    }
+    return f / q.mass;
+}
+
+}  // namespace ch

@@ -1,0 +1,39 @@
+// CrowdHealth — SocialForcesAvoidance: Helbing & Molnár's repulsive social forces.
+#pragma once
+
+#include "crowdhealth/registry.h"
+
+namespace ch {
+
+/// Repulsion from other pedestrians and walls after D. Helbing and P. Molnár, "Social force model
+/// for pedestrian dynamics", Phys. Rev. E 51(5):4282–4286, 1995 (eqs. 3–5, 8, 13), with UMANS'
+/// parameters:
+///  * pedestrians: V(b) = V0·exp(−b/σ) with the elliptic b(R) of eq. 4,
+///    2b = sqrt((|R| + |R − v_β Δt e_β|)² − (v_β Δt)²); f = −∇_R V(b), the exact gradient;
+///  * walls: U(R) = U0·exp(−|R|/R_wall), f = −∇U along the normal from the nearest wall point;
+///  * weight 1 inside the field of view (±100° around the walking direction), 0.5 behind (eq. 8);
+///  * agents already in contact exert no social force (contact forces take over, as UMANS).
+/// The result is divided by the agent's mass factor.
+class SocialForcesAvoidance : public ForceComponent {
+public:
+    explicit SocialForcesAvoidance(const ParamSet& params);
+    static ComponentInfo Info();
+    Vec2 acceleration(const AgentQuery& q, const StepContext& ctx) const override;
+
+    /// Force (per unit mass) on an agent at relative position R = x_α − x_β from a neighbour
+    /// moving at speed vb in unit direction eb; no field-of-view weighting. Exposed for tests.
+    Vec2 pairForce(const Vec2& R, double vb, const Vec2& eb) const;
+    /// Force from a wall whose nearest point is at `diff` = x_α − nearest.
+    Vec2 wallForce(const Vec2& diff) const;
+
+private:
+    double dt_ = 2.0;       ///< s, the step Δt in b(R): how far ahead the other's motion counts
+    double V0_ = 2.1;       ///< m²/s², strength of the pedestrian potential
+    double sigma_ = 0.3;    ///< m, decay length of the pedestrian potential
+    double U0_ = 10.0;      ///< m²/s², strength of the wall potential
+    double R_ = 0.2;        ///< m, decay length of the wall potential
+    double fovDeg_ = 100.0; ///< degrees, half-angle of the field of view
+    double behind_ = 0.5;   ///< weight of interactions outside the field of view
+};
+
+}  // namespace ch
