@@ -1,0 +1,110 @@
+// The neighbour grids return exactly the brute-force neighbour sets.
+#define BOOST_TEST_MODULE core_grid
+#include <boost/test/unit_test.hpp>
+
+#include "crowdhealth/grid.h"
+#include "crowdhealth/rng.h"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+using namespace ch;
+
+namespace {
+std::vector<Vec2> randomPoints(int n, double lo, double hi, std::uint64_t seed) {
+    Rng rng(seed);
+    std::vector<Vec2> pts;
+    for (int i = 0; i < n; ++i) pts.emplace_back(rng.uniform(lo, hi), rng.uniform(lo, hi));
+    return pts;
+}
+
+Vec2 minimumImage(Vec2 d, double w, double h) {
+    d.x() -= w * std::round(d.x() / w);
+    d.y() -= h * std::round(d.y() / h);
+    return d;
+}
+}  // namespace
+
+BOOST_AUTO_TEST_CASE(planar_grid_matches_brute_force) {
+    const auto pts = randomPoints(2000, -30, 30, 7);
+    PointGrid grid;
+    for (double cell : {0.7, 1.0, 5.0}) {
+        grid.build(pts, cell);
+        for (double radius : {0.5, 1.0, 2.5, 5.0}) {
+            for (int q = 0; q < 200; q += 7) {
+                std::vector<int> expected;
+                for (int j = 0; j < static_cast<int>(pts.size()); ++j)
+                    if ((pts[j] - pts[q]).squaredNorm() <= radius * radius) expected.push_back(j);
+                BOOST_TEST(grid.within(pts[q], radius) == expected, "cell " << cell << " radius " << radius);
+            }
+        }
+    }
+}
+
+BOOST_AUTO_TEST_CASE(negative_coordinates_use_floor_not_truncation) {
+    // Points straddling zero: truncation would merge cells -1 and 0 and still find them, so
+    // check the offsets and that a far point is not reported.
+    std::vector<Vec2> pts = {{-0.1, -0.1}, {0.1, 0.1}, {-1.9, 0.0}, {3.0, 3.0}};
+    PointGrid grid;
+    grid.build(pts, 1.0);
+    BOOST_TEST((grid.within({0, 0}, 0.5) == std::vector<int>{0, 1}));
+    BOOST_TEST((grid.within({-1.0, 0.0}, 1.0) == std::vector<int>{0, 2}));
+}
+
+BOOST_AUTO_TEST_CASE(toric_grid_finds_neighbours_across_the_border) {
+    const double w = 20, h = 12;
+    auto pts = randomPoints(800, -0.5, 0.5, 11);
+    for (Vec2& p : pts) p = Vec2(p.x() * w, p.y() * h);  // spread over [-w/2, w/2) × [-h/2, h/2)
+    PointGrid grid;
+    grid.build(pts, 2.0, true, w, h);
+    int acrossBorder = 0;
+    for (int q = 0; q < static_cast<int>(pts.size()); q += 3) {
+        const double radius = 2.0;
+        std::vector<int> expected;
+        for (int j = 0; j < static_cast<int>(pts.size()); ++j) {
+            const Vec2 d = minimumImage(pts[j] - pts[q], w, h);
+            if (d.squaredNorm() <= radius * radius) {
+                expected.push_back(j);
+                if ((pts[j] - pts[q]).norm() > radius) ++acrossBorder;
+            }
+        }
+        BOOST_TEST(grid.within(pts[q], radius) == expected);
+        // The reported offsets are the minimum-image vectors.
+        grid.forEachWithin(pts[q], radius, [&](int j, const Vec2& d, double) {
+            BOOST_TEST((d - minimumImage(pts[j] - pts[q], w, h)).norm() < 1e-12);
+        });
+    }
+    BOOST_TEST(acrossBorder > 0, "the random set must contain pairs that are neighbours only across the border");
+}
+
+BOOST_AUTO_TEST_CASE(far_flung_points_do_not_explode_memory) {
+    // UMANS examples put goals 50 km away; agents walking there spread the bounding box.
+    std::vector<Vec2> pts = {{0, 0}, {0.5, 0}, {50000, 3}, {50000.4, 3}};
+    PointGrid grid;
+    grid.build(pts, 0.1);
+    BOOST_TEST((grid.within({0, 0}, 1.0) == std::vector<int>{0, 1}));
+    BOOST_TEST((grid.within({50000, 3}, 1.0) == std::vector<int>{2, 3}));
+}
+
+BOOST_AUTO_TEST_CASE(segment_grid_matches_brute_force) {
+    Rng rng(3);
+    std::vector<Segment> segs;
+    for (int k = 0; k < 300; ++k) {
+        Vec2 a(rng.uniform(-20, 20), rng.uniform(-20, 20));
+        Vec2 b = a + Vec2(rng.uniform(-6, 6), rng.uniform(-6, 6));
+        segs.push_back(Segment{a, b, k});
+    }
+    SegmentGrid grid;
+    grid.build(segs, 2.0);
+    std::vector<int> got;
+    for (int q = 0; q < 200; ++q) {
+        const Vec2 p(rng.uniform(-25, 25), rng.uniform(-25, 25));
+        const double r = rng.uniform(0.1, 4.0);
+        grid.near(p, r, got);
+        std::vector<int> expected;
+        for (int k = 0; k < static_cast<int>(segs.size()); ++k)
+            if (distanceToSegmentSquared(p, segs[k].a, segs[k].b) <= r * r) expected.push_back(k);
+        BOOST_TEST(got == expected);
+    }
+}

@@ -1,0 +1,167 @@
+// Physics of the foundation: a lone agent walks at its preferred speed, social forces are
+// pairwise symmetric, and results do not depend on the number of threads.
+#define BOOST_TEST_MODULE core_physics
+#include <boost/test/unit_test.hpp>
+
+#include "SocialForcesAvoidance.h"
+#include "crowdhealth/kernels.h"
+#include "crowdhealth/rng.h"
+#include "test_support.h"
+
+#include <cmath>
+
+using namespace ch;
+
+namespace {
+PolicySpec socialForcesPolicy(double relaxation = 0.5) {
+    return test::policy(0, OptimisationMethod::Gradient,
+                        {test::component("SocialForcesAvoidance"), test::component("GoalReachingForce")}, relaxation);
+}
+}  // namespace
+
+BOOST_AUTO_TEST_CASE(lone_agent_arrives_when_relaxation_predicts) {
+    // Relaxation v_{k+1} = v_k + dt (v_p - v_k)/τ from rest gives v_k = v_p (1 - q^k), q = 1 - dt/τ,
+    // and x_n = dt Σ_{k=1..n} v_k (position uses the new velocity). The goal is 20 m away; the
+    // agent is removed when within its radius, i.e. after 20 - r metres.
+    const double dt = 0.1, tau = 0.5, vp = 1.4, r = 0.24, D = 20.0;
+    auto a = test::agent(1, {0, 0}, {D, 0}, r, vp, 1.8);
+    a.removeAtGoal = true;
+    auto spec = test::scenario({a}, {socialForcesPolicy(tau)}, dt, 60);
+    spec.endTime = -1;  // until the agent has left
+    Simulation sim(spec);
+    while (!sim.finished()) sim.stepCoarse();
+    BOOST_TEST_REQUIRE(sim.evacuations().size() == 1u);
+    const double measured = sim.evacuations()[0].time;
+
+    double x = 0, v = 0;
+    int n = 0;
+    const double q = 1 - dt / tau;
+    while (x < D - r) {
+        ++n;
+        v = vp * (1 - std::pow(q, n));
+        x += v * dt;
+    }
+    const double predicted = n * dt;
+    BOOST_TEST(std::abs(measured - predicted) / predicted < 0.03,
+               "arrival " << measured << " s, relaxation predicts " << predicted << " s");
+    // And the continuous-time estimate D/v_p + τ is within the same tolerance.
+    BOOST_TEST(std::abs(measured - ((D - r) / vp + tau)) / measured < 0.03);
+}
+
+BOOST_AUTO_TEST_CASE(lone_agent_cruises_at_preferred_speed) {
+    auto a = test::agent(1, {0, 0}, {100, 0}, 0.3, 1.3, 1.6);
+    auto spec = test::scenario({a}, {socialForcesPolicy()}, 0.1, 20);
+    Simulation sim(spec);
+    while (!sim.finished()) sim.stepCoarse();
+    BOOST_TEST(std::abs(sim.agents().vel[0].norm() - 1.3) < 1e-6);
+    BOOST_TEST(std::abs(sim.agents().vel[0].y()) < 1e-12);
+}
+
+BOOST_AUTO_TEST_CASE(social_pair_forces_are_equal_and_opposite) {
+    test::component("SocialForcesAvoidance");  // make sure it is registered
+    SocialForcesAvoidance sf(ParamSet(Registry::fullTable(SocialForcesAvoidance::Info())));
+    Rng rng(5);
+    for (int k = 0; k < 50; ++k) {
+        // Two pedestrians at rest: the potential is isotropic, so f_ab = -f_ba exactly.
+        const Vec2 xa(rng.uniform(-2, 2), rng.uniform(-2, 2)), xb(rng.uniform(-2, 2), rng.uniform(-2, 2));
+        const Vec2 fab = sf.pairForce(xa - xb, 0.0, Vec2(1, 0));
+        const Vec2 fba = sf.pairForce(xb - xa, 0.0, Vec2(0, 1));
+        BOOST_TEST((fab + fba).norm() <= 1e-12 * std::max(1.0, fab.norm()));
+        // Repulsive: along a → away from b.
+        BOOST_TEST(fab.dot(xa - xb) > 0);
+    }
+    // Two pedestrians walking towards each other symmetrically: mirror-symmetric forces.
+    const Vec2 R(2.0, 0.3);
+    const Vec2 fab = sf.pairForce(R, 1.2, Vec2(-1, 0));   // b walks towards a (−x)
+    const Vec2 fba = sf.pairForce(-R, 1.2, Vec2(1, 0));   // a walks towards b (+x)
+    BOOST_TEST((fab + fba).norm() < 1e-12);
+}
+
+BOOST_AUTO_TEST_CASE(social_force_is_minus_the_potential_gradient) {
+    ParamSet p(Registry::fullTable(SocialForcesAvoidance::Info()));
+    SocialForcesAvoidance sf(p);
+    const double V0 = 2.1, sigma = 0.3, dt = 2.0;
+    auto potential = [&](const Vec2& R, double vb, const Vec2& eb) {
+        const Vec2 s = vb * dt * eb;
+        const double b = 0.5 * std::sqrt(std::pow(R.norm() + (R - s).norm(), 2) - s.squaredNorm());
+        return V0 * std::exp(-b / sigma);
+    };
+    Rng rng(9);
+    for (int k = 0; k < 30; ++k) {
+        const Vec2 R(rng.uniform(0.5, 3), rng.uniform(-3, 3));
+        const double vb = rng.uniform(0, 1.5);
+        const Vec2 eb = rotated(Vec2(1, 0), rng.uniform(-kPi, kPi));
+        const double h = 1e-6;
+        const Vec2 grad((potential(R + Vec2(h, 0), vb, eb) - potential(R - Vec2(h, 0), vb, eb)) / (2 * h),
+                        (potential(R + Vec2(0, h), vb, eb) - potential(R - Vec2(0, h), vb, eb)) / (2 * h));
+        const Vec2 f = sf.pairForce(R, vb, eb);
+        BOOST_TEST((f + grad).norm() < 1e-6 * std::max(1.0, f.norm()));
+    }
+}
+
+BOOST_AUTO_TEST_CASE(same_seed_identical_with_one_and_two_threads) {
+    // 60 agents in two crossing streams with random sampling: any shared state would show.
+    std::vector<AgentSpec> agents;
+    for (int k = 0; k < 30; ++k) {
+        agents.push_back(test::agent(k, {-8.0 - (k % 5), -3.0 + (k / 5)}, {8, -3.0 + (k / 5)}));
+        agents.push_back(test::agent(100 + k, {-3.0 + (k / 5), -8.0 - (k % 5)}, {-3.0 + (k / 5), 8}));
+    }
+    SamplingSpec s;
+    s.type = SamplingSpec::Type::Random;
+    s.randomSamples = 40;
+    s.radius = SamplingSpec::Radius::MaximumSpeed;
+    auto sf = test::scenario(agents, {socialForcesPolicy()}, 0.1, 15);
+    auto sampled = test::scenario(
+        agents, {test::policy(0, OptimisationMethod::Sampling, {test::component("SocialForcesAvoidance"),
+                                                                  test::component("GoalReachingForce")},
+                              0.5, s)},
+        0.1, 15);
+    for (const ScenarioSpec& spec : {sf, sampled}) {
+        Simulation one(spec), two(spec);
+        one.setThreads(1);
+        while (!one.finished()) one.stepCoarse();
+        two.setThreads(2);
+        while (!two.finished()) two.stepCoarse();
+        BOOST_TEST_REQUIRE(one.agents().size() == two.agents().size());
+        for (std::size_t i = 0; i < one.agents().size(); ++i) {
+            BOOST_TEST(one.agents().pos[i].x() == two.agents().pos[i].x());  // bit-identical
+            BOOST_TEST(one.agents().pos[i].y() == two.agents().pos[i].y());
+        }
+    }
+}
+
+BOOST_AUTO_TEST_CASE(start_time_activates_agents_on_time) {
+    auto a = test::agent(1, {0, 0}, {10, 0});
+    auto b = test::agent(2, {0, 5}, {10, 5});
+    b.startTime = 2.0;
+    auto spec = test::scenario({a, b}, {socialForcesPolicy()}, 0.1, 3);
+    Simulation sim(spec);
+    BOOST_TEST(sim.agents().size() == 1u);
+    BOOST_TEST(sim.pending() == 1u);
+    while (sim.time() < 1.95) sim.stepCoarse();
+    BOOST_TEST(sim.agents().size() == 1u);
+    sim.stepCoarse();  // the step starting at t = 2 s activates agent 2
+    BOOST_TEST(sim.agents().size() == 2u);
+}
+
+BOOST_AUTO_TEST_CASE(toric_world_wraps_positions) {
+    auto a = test::agent(1, {4.5, 0}, {1000, 0}, 0.3, 1.0, 1.0);
+    auto spec = test::scenario({a}, {socialForcesPolicy(0.1)}, 0.1, 3);
+    spec.world.type = WorldType::Toric;
+    spec.world.width = spec.world.height = 10;
+    Simulation sim(spec);
+    while (!sim.finished()) sim.stepCoarse();
+    const double x = sim.agents().pos[0].x();
+    BOOST_TEST(x >= -5.0);
+    BOOST_TEST(x < 5.0);
+    BOOST_TEST(x < 0.0, "the agent crossed x = 5 and must reappear near x = -5, got " << x);
+}
+
+BOOST_AUTO_TEST_CASE(measured_density_of_a_lone_agent_is_m_times_4_over_pi) {
+    auto a = test::agent(1, {0, 0}, {0, 0});
+    a.mass = 1.3;
+    auto spec = test::scenario({a}, {socialForcesPolicy()}, 0.1, 1);
+    Simulation sim(spec);
+    sim.measureDensity(1.0);
+    BOOST_TEST(std::abs(sim.agents().density[0] - 1.3 * 4.0 / kPi) < 1e-12);
+}
