@@ -10,7 +10,10 @@ namespace ch {
 std::string Diagnostic::format() const {
     // Compiler style so editors and CI logs can jump straight to the line.
     std::string out = where.file;
-    if (where.line > 0) out += ":" + std::to_string(where.line);
+    if (where.line > 0) {
+        out += ':';
+        out += std::to_string(where.line);
+    }
     if (!out.empty()) out += ": ";
     out += severity == Severity::Error ? "error: " : "warning: ";
     out += message;

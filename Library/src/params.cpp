@@ -141,9 +141,15 @@ std::string ParamSpec::rangeText() const {
     // An infinite bound is never attained, so it is written with an open bracket.
     const bool openLow = minExclusive || min <= -kUnbounded;
     const bool openHigh = maxExclusive || max >= kUnbounded;
-    std::string out = std::string(openLow ? "(" : "[") + formatNumber(min) + ", " + formatNumber(max) +
-                      (openHigh ? ")" : "]");
-    if (!unit.empty() && unit != "-") out += " " + unit;
+    std::string out(1, openLow ? '(' : '[');
+    out += formatNumber(min);
+    out += ", ";
+    out += formatNumber(max);
+    out += openHigh ? ')' : ']';
+    if (!unit.empty() && unit != "-") {
+        out += ' ';
+        out += unit;
+    }
     return out;
 }
 

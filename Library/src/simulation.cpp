@@ -72,10 +72,23 @@ void Simulation::activatePending() {
     // Half a fine step of tolerance so a start_time written as a multiple of delta_time is met
     // exactly despite rounding.
     const double now = time() + 0.5 * dtFine_;
+    const std::size_t before = agents_.size();
     while (nextPending_ < pending_.size() && spec_.agents[pending_[nextPending_]].startTime <= now) {
         const std::size_t k = pending_[nextPending_++];
         agents_.add(spec_.agents[k], agentPolicy_[k]);
     }
+    if (agents_.size() != before) {
+        std::vector<int> previous(agents_.size(), -1);
+        for (std::size_t i = 0; i < before; ++i) previous[i] = static_cast<int>(i);
+        heldAccel_.resize(agents_.size(), Vec2(0, 0));
+        remapComponents(previous);
+    }
+}
+
+void Simulation::remapComponents(const std::vector<int>& previous) {
+    for (Policy& p : policies_)
+        for (PolicyStep& s : p.steps())
+            for (auto& e : s.components()) e.component->remapAgents(previous);
 }
 
 void Simulation::stepCoarse() {
@@ -216,9 +229,15 @@ void Simulation::removeFinished() {
         agents_.removeMarked(remove);
         // Keep the held coarse accelerations aligned with the surviving agents.
         std::size_t w = 0;
+        std::vector<int> previous;
+        previous.reserve(n);
         for (std::size_t r = 0; r < n; ++r)
-            if (!remove[r]) heldAccel_[w++] = heldAccel_[r];
+            if (!remove[r]) {
+                heldAccel_[w++] = heldAccel_[r];
+                previous.push_back(static_cast<int>(r));
+            }
         heldAccel_.resize(w);
+        remapComponents(previous);
     }
 }
 

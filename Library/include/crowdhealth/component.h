@@ -92,6 +92,11 @@ public:
     /// Current value of a bound parameter (NaN if not bound).
     double parameter(const std::string& name) const;
 
+    /// Called after agents were added or removed, so per-agent state kept across steps can
+    /// follow its agents: `previous[i]` is the index agent i had before the change, or -1 for an
+    /// agent that has just appeared. Runs on one thread.
+    virtual void remapAgents(const std::vector<int>& previous) { (void)previous; }
+
     /// Per-agent scalar this component wants recorded (e.g. "rest_density"); empty if none.
     virtual const std::vector<double>* field(const std::string& name) const { (void)name; return nullptr; }
 

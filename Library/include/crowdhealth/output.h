@@ -46,8 +46,9 @@ public:
 void appendNumber(std::string& out, double v, int digits = 6);
 /// appendNumber into a new string.
 std::string formatNumber(double v, int digits = 6);
-/// JSON value of v: the number (up to 17 significant digits, round-trips) or `null` if not finite.
-std::string jsonNumber(double v);
+/// JSON value of v with `digits` significant digits, or `null` if not finite. Ten digits keep
+/// times such as 92·0.1 = 9.200000000000001 readable as 9.2 while losing nothing measurable.
+std::string jsonNumber(double v, int digits = 10);
 /// JSON string literal with quotes and escapes.
 std::string jsonString(std::string_view s);
 

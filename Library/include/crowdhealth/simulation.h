@@ -79,6 +79,8 @@ private:
     void activatePending();
     void gatherQuery(std::size_t i, double range, AgentQuery& q) const;
     void removeFinished();
+    /// Tells every component how agent indices moved (see Component::remapAgents).
+    void remapComponents(const std::vector<int>& previous);
     Vec2 umansContactAcceleration(const AgentQuery& q, double scale) const;
 
     ScenarioSpec spec_;

@@ -1,0 +1,472 @@
+// CrowdHealth — recorders and writers for a run's outputs (see output.h).
+#include "crowdhealth/output.h"
+
+#include "crowdhealth/grid.h"
+#include "crowdhealth/kernels.h"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <system_error>
+
+namespace ch {
+
+namespace fs = std::filesystem;
+
+// ---- number formatting ---------------------------------------------------------------------
+
+void appendNumber(std::string& out, double v, int digits) {
+    if (std::isnan(v)) { out += "nan"; return; }
+    if (std::isinf(v)) { out += v > 0 ? "inf" : "-inf"; return; }
+    if (v == 0.0) v = 0.0;  // -0 → 0: the sign of a zero carries no information in a report
+    char buf[64];
+    // to_chars never looks at the locale (printf would write "0,5" under a German LC_NUMERIC).
+    const auto res = std::to_chars(buf, buf + sizeof buf, v, std::chars_format::general, digits);
+    out.append(buf, res.ptr);
+}
+
+std::string formatNumber(double v, int digits) {
+    std::string s;
+    appendNumber(s, v, digits);
+    return s;
+}
+
+/// Fixed-point with `decimals` decimals (PedPy columns), locale-independent.
+static void appendFixed(std::string& out, double v, int decimals) {
+    if (!std::isfinite(v)) { appendNumber(out, v); return; }
+    char buf[64];
+    auto res = std::to_chars(buf, buf + sizeof buf, v, std::chars_format::fixed, decimals);
+    if (res.ec != std::errc()) { appendNumber(out, v, 17); return; }
+    std::string_view text(buf, static_cast<std::size_t>(res.ptr - buf));
+    // "-0.0000" (a tiny negative value) reads oddly; it is the same position as "0.0000".
+    if (text.front() == '-' && text.find_first_not_of("-0.") == std::string_view::npos) text.remove_prefix(1);
+    out += text;
+}
+
+std::string jsonNumber(double v, int digits) {
+    if (!std::isfinite(v)) return "null";
+    std::string s;
+    appendNumber(s, v, digits);
+    return s;
+}
+
+std::string jsonString(std::string_view s) {
+    std::string out = "\"";
+    for (const char c : s) {
+        switch (c) {
+            case '"': out += "\\\""; break;
+            case '\\': out += "\\\\"; break;
+            case '\n': out += "\\n"; break;
+            case '\r': out += "\\r"; break;
+            case '\t': out += "\\t"; break;
+            default:
+                if (static_cast<unsigned char>(c) < 0x20) {
+                    static const char* hex = "0123456789abcdef";
+                    out += "\\u00";
+                    out += hex[(c >> 4) & 0xf];
+                    out += hex[c & 0xf];
+                } else {
+                    out += c;  // UTF-8 bytes pass through unchanged (valid JSON)
+                }
+        }
+    }
+    out += '"';
+    return out;
+}
+
+// ---- atomic files --------------------------------------------------------------------------
+
+AtomicFile::AtomicFile(fs::path target) : target_(std::move(target)) {
+    temp_ = target_;
+    temp_ += ".tmp";
+    // Binary: the bytes we format are the bytes on disk (no newline translation anywhere).
+    out_.open(temp_, std::ios::out | std::ios::trunc | std::ios::binary);
+    if (!out_) throw OutputError("cannot create " + temp_.string());
+}
+
+AtomicFile::~AtomicFile() {
+    if (committed_) return;
+    out_.close();
+    std::error_code ec;
+    fs::remove(temp_, ec);  // best effort: never throw from a destructor
+}
+
+void AtomicFile::commit() {
+    if (committed_) return;
+    out_.flush();
+    const bool writeOk = static_cast<bool>(out_);
+    out_.close();
+    std::error_code ec;
+    if (!writeOk || out_.fail()) {
+        fs::remove(temp_, ec);
+        throw OutputError("cannot write " + temp_.string() + " (disk full or no permission?)");
+    }
+    fs::rename(temp_, target_, ec);
+    if (ec) {
+        std::error_code ignored;
+        fs::remove(temp_, ignored);
+        throw OutputError("cannot rename " + temp_.string() + " to " + target_.string() + ": " + ec.message());
+    }
+    committed_ = true;
+}
+
+void writeFileAtomic(const fs::path& target, std::string_view content) {
+    AtomicFile f(target);
+    f.write(content);
+    f.commit();
+}
+
+// ---- metrics -------------------------------------------------------------------------------
+
+std::vector<double> crowdPressure(const AgentStore& agents, const std::vector<double>& density,
+                                  const World& world, double h) {
+    const std::size_t n = agents.size();
+    std::vector<double> pressure(n, 0.0);
+    if (n == 0) return pressure;
+    PointGrid grid;
+    grid.build(agents.pos, h, world.periodic(), world.spec().width, world.spec().height);
+    const long count = static_cast<long>(n);
+    // Each iteration writes only pressure[i] and sums its neighbours in the grid's fixed visit
+    // order, so the result does not depend on the number of threads.
+#pragma omp parallel for schedule(static)
+    for (long ii = 0; ii < count; ++ii) {
+        const std::size_t i = static_cast<std::size_t>(ii);
+        // Two passes (mean, then squared deviations) rather than E[v²] − E[v]², which cancels
+        // badly when everyone walks at nearly the same velocity.
+        double sumW = 0.0;
+        Vec2 sumWV(0.0, 0.0);
+        grid.forEachWithin(agents.pos[i], h, [&](int j, const Vec2&, double d2) {
+            const double w = kernels::poly6(d2, h);
+            sumW += w;
+            sumWV += w * agents.vel[static_cast<std::size_t>(j)];
+        });
+        if (sumW <= 0.0) continue;
+        const Vec2 mean = sumWV / sumW;
+        double sumWDev = 0.0;
+        grid.forEachWithin(agents.pos[i], h, [&](int j, const Vec2&, double d2) {
+            const double w = kernels::poly6(d2, h);
+            sumWDev += w * (agents.vel[static_cast<std::size_t>(j)] - mean).squaredNorm();
+        });
+        const double rho = i < density.size() ? density[i] : 0.0;
+        pressure[i] = rho * (sumWDev / sumW);
+    }
+    return pressure;
+}
+
+/// The per-agent "rest_density" field of the component that provides it in each policy
+/// (nullptr where the policy has none).
+static std::vector<const std::vector<double>*> restDensityFields(const Simulation& sim) {
+    std::vector<const std::vector<double>*> fields;
+    for (const Policy& p : sim.policies()) {
+        const std::vector<double>* found = nullptr;
+        for (const PolicyStep& step : p.steps()) {
+            for (const PolicyStep::Entry& e : step.components()) {
+                if (e.component && (found = e.component->field("rest_density")) != nullptr) break;
+            }
+            if (found) break;
+        }
+        fields.push_back(found);
+    }
+    return fields;
+}
+
+MetricsRow measureMetrics(Simulation& sim, double h) {
+    sim.measureDensity(h);
+    const AgentStore& a = sim.agents();
+    const std::size_t n = a.size();
+
+    MetricsRow row;
+    row.time = sim.time();
+    row.agents = n;
+    row.evacuated = sim.evacuations().size();
+    row.maxWallPenetration = sim.maxWallPenetration();
+
+    // Every sum below runs in agent order on one thread: the same bits whatever the thread count.
+    double sumDensity = 0, sumSpeed = 0, sumContact = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+        const double rho = i < a.density.size() ? a.density[i] : 0.0;
+        sumDensity += rho;
+        row.maxDensity = std::max(row.maxDensity, rho);
+        const double speed = a.vel[i].norm();
+        sumSpeed += speed;
+        row.maxSpeed = std::max(row.maxSpeed, speed);
+        const double contact = i < a.contactAccel.size() ? a.contactAccel[i].norm() : 0.0;
+        sumContact += contact;
+        row.maxContactAccel = std::max(row.maxContactAccel, contact);
+    }
+    // The mean over an empty crowd is reported as 0 so plots need no special case.
+    const double inv = n > 0 ? 1.0 / static_cast<double>(n) : 0.0;
+    row.meanDensity = sumDensity * inv;
+    row.meanSpeed = sumSpeed * inv;
+    row.meanContactAccel = sumContact * inv;
+
+    const auto fields = restDensityFields(sim);
+    const bool anyProvider =
+        std::any_of(fields.begin(), fields.end(), [](const auto* f) { return f != nullptr; });
+    if (!anyProvider) {
+        row.meanRestDensity = std::numeric_limits<double>::quiet_NaN();
+    } else {
+        double sum = 0;
+        std::size_t count = 0;
+        for (std::size_t i = 0; i < n; ++i) {
+            const int p = a.policy[i];
+            if (p < 0 || static_cast<std::size_t>(p) >= fields.size() || fields[p] == nullptr) continue;
+            if (i >= fields[p]->size()) continue;
+            sum += (*fields[p])[i];
+            ++count;
+        }
+        row.meanRestDensity = count > 0 ? sum / static_cast<double>(count) : 0.0;
+    }
+
+    // CrowdHealth layer (panic, injury) does not exist yet: the columns stay, at 0.
+    row.meanPanic = 0;
+    row.injured = 0;
+
+    const std::vector<double> pressure = crowdPressure(a, a.density, sim.world(), h);
+    for (const double p : pressure) row.crowdPressure = std::max(row.crowdPressure, p);
+    return row;
+}
+
+MetricsRecorder::MetricsRecorder(double interval, double smoothingLength)
+    : interval_(interval), h_(smoothingLength) {}
+
+/// Tolerance (s) when comparing a simulated time with a multiple of the interval: times are
+/// products fineSteps·dt, so 3·0.1 is 0.30000000000000004, not 0.3.
+static double timeTolerance(double t) { return 1e-9 * std::max(1.0, std::abs(t)); }
+
+void MetricsRecorder::sample(Simulation& sim) {
+    const double t = sim.time();
+    if (!rows_.empty() && rows_.back().time == t) return;
+    rows_.push_back(measureMetrics(sim, h_));
+    if (interval_ > 0) {
+        const auto reached = static_cast<std::uint64_t>(std::floor((t + timeTolerance(t)) / interval_));
+        nextIndex_ = std::max(nextIndex_, reached + 1);
+    }
+}
+
+bool MetricsRecorder::maybeSample(Simulation& sim) {
+    const double t = sim.time();
+    if (!(interval_ > 0)) {  // also NaN
+        const std::size_t before = rows_.size();
+        sample(sim);
+        return rows_.size() != before;
+    }
+    const double due = static_cast<double>(nextIndex_) * interval_;
+    if (t + timeTolerance(t) < due) return false;
+    const std::size_t before = rows_.size();
+    sample(sim);
+    return rows_.size() != before;
+}
+
+void MetricsRecorder::finish(Simulation& sim) {
+    if (rows_.empty() || rows_.back().time != sim.time()) rows_.push_back(measureMetrics(sim, h_));
+}
+
+MetricsPeaks MetricsRecorder::peaks() const {
+    MetricsPeaks p;
+    for (const MetricsRow& r : rows_) {
+        p.maxDensity = std::max(p.maxDensity, r.maxDensity);
+        p.maxMeanDensity = std::max(p.maxMeanDensity, r.meanDensity);
+        p.maxContactAccel = std::max(p.maxContactAccel, r.maxContactAccel);
+        p.maxWallPenetration = std::max(p.maxWallPenetration, r.maxWallPenetration);
+    }
+    return p;
+}
+
+std::string MetricsRecorder::csv() const {
+    std::string out = kMetricsHeader;
+    out += '\n';
+    out.reserve(out.size() + rows_.size() * 120);
+    for (const MetricsRow& r : rows_) {
+        appendNumber(out, r.time, 10);  // time: enough digits that 3599.9 stays 3599.9
+        out += ',';
+        out += std::to_string(r.agents);
+        out += ',';
+        out += std::to_string(r.evacuated);
+        for (const double v : {r.meanDensity, r.maxDensity}) { out += ','; appendNumber(out, v); }
+        out += ',';
+        if (!std::isnan(r.meanRestDensity)) appendNumber(out, r.meanRestDensity);  // empty: no provider
+        for (const double v : {r.meanSpeed, r.maxSpeed, r.meanContactAccel, r.maxContactAccel,
+                               r.maxWallPenetration, r.meanPanic}) {
+            out += ',';
+            appendNumber(out, v);
+        }
+        out += ',';
+        out += std::to_string(r.injured);
+        out += ',';
+        appendNumber(out, r.crowdPressure);
+        out += '\n';
+    }
+    return out;
+}
+
+// ---- evacuations ---------------------------------------------------------------------------
+
+std::string evacuationsCsv(const Simulation& sim) {
+    std::string out = "id,time\n";
+    for (const Evacuation& e : sim.evacuations()) {
+        out += std::to_string(e.id);
+        out += ',';
+        appendNumber(out, e.time, 10);
+        out += '\n';
+    }
+    return out;
+}
+
+// ---- trajectories --------------------------------------------------------------------------
+
+void TrajectoryRecorder::record(const Simulation& sim) {
+    const std::uint64_t step = sim.coarseSteps();
+    if (any_ && step == lastStep_) return;
+    any_ = true;
+    lastStep_ = step;
+    if (stepTime_.size() <= step) stepTime_.resize(step + 1, std::numeric_limits<double>::quiet_NaN());
+    stepTime_[step] = sim.time();
+    ++stepsRecorded_;
+
+    const AgentStore& a = sim.agents();
+    for (std::size_t i = 0; i < a.size(); ++i) {
+        auto [it, inserted] = trackOf_.try_emplace(a.id[i], tracks_.size());
+        if (inserted) tracks_.push_back(Track{a.id[i], {}, {}});
+        Track& tr = tracks_[it->second];
+        // A new run when the agent was absent at the previous recorded step (normally only its
+        // first appearance: agents enter once and leave once).
+        if (tr.runs.empty() || tr.runs.back().firstStep + tr.runs.back().count != step)
+            tr.runs.push_back(Run{step, tr.rows.size() / 4, 0});
+        const Vec2& p = a.pos[i];
+        const Vec2& d = a.viewDir[i];
+        tr.rows.insert(tr.rows.end(), {p.x(), p.y(), d.x(), d.y()});
+        ++tr.runs.back().count;
+    }
+}
+
+std::vector<std::size_t> TrajectoryRecorder::tracksById() const {
+    std::vector<std::size_t> order(tracks_.size());
+    std::iota(order.begin(), order.end(), std::size_t{0});
+    std::sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) { return tracks_[x].id < tracks_[y].id; });
+    return order;
+}
+
+void TrajectoryRecorder::writeUmans(const fs::path& dir) const {
+    std::string text;
+    for (const std::size_t t : tracksById()) {
+        const Track& tr = tracks_[t];
+        text.clear();
+        for (const Run& run : tr.runs) {
+            for (std::size_t k = 0; k < run.count; ++k) {
+                const std::uint64_t step = run.firstStep + k;
+                if (step == 0) continue;  // UMANS writes the state after each step, never t = 0
+                const double* r = &tr.rows[(run.firstRow + k) * 4];
+                // UMANS streams doubles with the default ostream precision: 6 significant digits.
+                appendNumber(text, stepTime_[step]);
+                for (int c = 0; c < 4; ++c) {
+                    text += ',';
+                    appendNumber(text, r[c]);
+                }
+                text += '\n';
+            }
+        }
+        writeFileAtomic(dir / ("output_" + std::to_string(tr.id) + ".csv"), text);
+    }
+}
+
+void TrajectoryRecorder::writePedPy(const fs::path& file, double deltaTime) const {
+    AtomicFile f(file);
+    std::string text;
+    // PedPy reads the frame rate from the first number on a comment line containing "framerate"
+    // and the unit from "x/m"; comment lines must come before the data.
+    text += "# framerate: ";
+    appendNumber(text, 1.0 / deltaTime, 10);
+    text += "\n# x/m\n# y/m\n# z/m\n# id frame x y z\n";
+
+    struct Cursor { std::size_t run = 0, k = 0; };
+    const std::vector<std::size_t> order = tracksById();
+    std::vector<Cursor> cursor(order.size());
+    const std::uint64_t steps = stepTime_.size();
+    for (std::uint64_t step = 0; step < steps; ++step) {
+        for (std::size_t o = 0; o < order.size(); ++o) {
+            const Track& tr = tracks_[order[o]];
+            Cursor& c = cursor[o];
+            if (c.run >= tr.runs.size()) continue;
+            const Run& run = tr.runs[c.run];
+            if (run.firstStep + c.k != step) continue;
+            const double* r = &tr.rows[(run.firstRow + c.k) * 4];
+            text += std::to_string(tr.id);
+            text += ' ';
+            text += std::to_string(step);
+            text += ' ';
+            appendFixed(text, r[0], 4);  // 0.1 mm: far below any pedestrian measurement
+            text += ' ';
+            appendFixed(text, r[1], 4);
+            text += " 0\n";
+            if (++c.k == run.count) { ++c.run; c.k = 0; }
+        }
+        if (text.size() > (1u << 20)) {  // stream in ~1 MB pieces instead of one huge string
+            f.write(text);
+            text.clear();
+        }
+    }
+    f.write(text);
+    f.commit();
+}
+
+// ---- summary -------------------------------------------------------------------------------
+
+std::optional<double> evacuationFlow(const std::vector<Evacuation>& evacuations, int first, int last) {
+    if (first < 1 || last <= first || evacuations.size() < static_cast<std::size_t>(last)) return std::nullopt;
+    const double t0 = evacuations[static_cast<std::size_t>(first - 1)].time;
+    const double t1 = evacuations[static_cast<std::size_t>(last - 1)].time;
+    if (!(t1 > t0)) return std::nullopt;
+    return static_cast<double>(last - first) / (t1 - t0);
+}
+
+std::string summaryJson(const Simulation& sim, const RunInfo& info, const MetricsPeaks& peaks) {
+    const ScenarioSpec& spec = sim.spec();
+    const auto& evac = sim.evacuations();
+    const std::size_t total = sim.totalAgents();
+    const std::size_t remaining = sim.agents().size() + sim.pending();
+
+    // Flow from the first-th to the last-th evacuee; a scenario with fewer agents than `last`
+    // (e.g. 50 agents, default last = 350) measures up to its last agent instead.
+    const int first = spec.output.flowFirst;
+    const int last = static_cast<int>(std::min<std::size_t>(static_cast<std::size_t>(std::max(spec.output.flowLast, 0)), total));
+    const std::optional<double> flow = evacuationFlow(evac, first, last);
+
+    // Evacuation time: when the last agent was removed at its goal, once nobody is left.
+    std::optional<double> evacTime;
+    if (remaining == 0 && !evac.empty()) evacTime = evac.back().time;
+
+    const std::string scenario = info.scenario.empty() ? spec.sourceFile : info.scenario;
+    auto opt = [](const std::optional<double>& v) { return v ? jsonNumber(*v) : std::string("null"); };
+
+    std::string j = "{\n";
+    j += "  \"scenario\": " + jsonString(scenario) + ",\n";
+    j += "  \"seed\": " + std::to_string(spec.seed) + ",\n";
+    j += "  \"delta_time\": " + jsonNumber(sim.deltaTime()) + ",\n";
+    j += "  \"delta_time_fine\": " + jsonNumber(sim.deltaTimeFine()) + ",\n";
+    j += "  \"end_time\": " + (info.endTime >= 0 ? jsonNumber(info.endTime) : std::string("null")) + ",\n";
+    j += "  \"end_time_source\": " + jsonString(info.endTimeSource.empty() ? "none" : info.endTimeSource) + ",\n";
+    j += "  \"simulated_time\": " + jsonNumber(sim.time()) + ",\n";
+    j += "  \"coarse_steps\": " + std::to_string(sim.coarseSteps()) + ",\n";
+    j += std::string("  \"interrupted\": ") + (info.interrupted ? "true" : "false") + ",\n";
+    j += std::string("  \"stopped_at_safety_cap\": ") + (info.stoppedAtSafetyCap ? "true" : "false") + ",\n";
+    j += "  \"agents_total\": " + std::to_string(total) + ",\n";
+    j += "  \"evacuated\": " + std::to_string(evac.size()) + ",\n";
+    j += "  \"left_world\": " + std::to_string(sim.leftWorld()) + ",\n";
+    j += "  \"remaining\": " + std::to_string(remaining) + ",\n";
+    j += "  \"evacuation_time\": " + opt(evacTime) + ",\n";
+    j += "  \"flow\": {\"first\": " + std::to_string(first) + ", \"last\": " + std::to_string(last) +
+         ", \"persons_per_second\": " + opt(flow) + "},\n";
+    j += "  \"peaks\": {\"max_density\": " + jsonNumber(peaks.maxDensity) +
+         ", \"max_mean_density\": " + jsonNumber(peaks.maxMeanDensity) +
+         ", \"max_contact_accel\": " + jsonNumber(peaks.maxContactAccel) +
+         ", \"max_wall_penetration\": " + jsonNumber(peaks.maxWallPenetration) + "},\n";
+    j += "  \"threads\": " + std::to_string(info.threads) + ",\n";
+    j += "  \"wall_time_s\": " + jsonNumber(info.wallTimeSeconds) + "\n";
+    j += "}\n";
+    return j;
+}
+
+}  // namespace ch

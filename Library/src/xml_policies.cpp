@@ -1,0 +1,226 @@
+// CrowdHealth — XML loader: <Policy> (UMANS 1.x and SPH-era <Step> form) and its components.
+#include "crowdhealth/registry.h"
+
+#include "xml_internal.h"
+
+#include <algorithm>
+
+namespace ch::xmlio {
+
+namespace {
+
+/// UMANS' sampling attributes, shared by a 1.x <Policy> and an SPH-era <Step>. Defaults come from
+/// SamplingSpec so the header stays the one source of truth.
+ParamTable samplingParams() {
+    const SamplingSpec d;
+    ParamTable t = {
+        ParamSpec::choice("SamplingType", {"regular", "random"}, static_cast<int>(d.type),
+                          "regular rings × directions, or uniform random samples"),
+        ParamSpec::choice("SamplingBase", {"zero", "current velocity"}, static_cast<int>(d.base),
+                          "origin of the sampled disk or cone"),
+        ParamSpec::choice("SamplingBaseDirection", {"unit", "current velocity", "preferred velocity"},
+                          static_cast<int>(d.baseDirection), "central direction of the sampled cone"),
+        ParamSpec::choice("SamplingRadius", {"preferred speed", "maximum speed", "maximum acceleration"},
+                          static_cast<int>(d.radius), "radius of the sampled disk or cone"),
+        ParamSpec::real("SamplingAngle", "deg", d.angle, 0, 360, "full opening angle of the sampled cone"),
+        ParamSpec::integer("SpeedSamples", d.speedSamples, 1, 2147483647, "regular sampling: number of rings"),
+        ParamSpec::integer("AngleSamples", d.angleSamples, 1, 2147483647, "regular sampling: directions per ring"),
+        ParamSpec::integer("RandomSamples", d.randomSamples, 1, 2147483647, "random sampling: samples per step"),
+        ParamSpec::boolean("IncludeBaseAsSample", d.includeBaseAsSample, "also evaluate the base velocity"),
+    };
+    t[4].minExclusive = true;
+    return t;
+}
+
+ParamSpec methodParam() {
+    return ParamSpec::choice("OptimizationMethod", {"gradient", "sampling", "global"}, 0,
+                             "how the components' cost is minimised");
+}
+
+ParamSpec relaxationParam() {
+    return ParamSpec::real("RelaxationTime", "s", 0, 0, 1e300,
+                           "time to reach the optimal velocity; 0 = within one step");
+}
+
+/// Attributes a policy takes in both forms.
+ParamTable basePolicyParams() {
+    return {
+        ParamSpec::integer("id", 0, 0, 2147483647, "policy id, referred to by agents"),
+        ParamSpec::real("ContactForceScale", "1/s2", PolicySpec{}.contactForceScale, 0, 1e300,
+                        "UMANS' post-step contact stiffness per unit mass; 0 disables it"),
+    };
+}
+
+/// A UMANS 1.x policy: the policy is its one step.
+const ParamTable& policyTable() {
+    static const ParamTable t = [] {
+        ParamTable table = basePolicyParams();
+        table.push_back(methodParam());
+        table.push_back(relaxationParam());
+        const ParamTable s = samplingParams();
+        table.insert(table.end(), s.begin(), s.end());
+        return table;
+    }();
+    return t;
+}
+
+const ParamTable& stepTable() {
+    static const ParamTable t = [] {
+        ParamTable table = {
+            ParamSpec::choice("DeltaTime", {"coarse", "fine"}, 0,
+                              "time step of this step: coarse = delta_time, fine = delta_time_fine"),
+            ParamSpec::boolean("StopAtGoal", StepSpec{}.stopAtGoal, "agents at their goal stand still"),
+            methodParam(),
+            relaxationParam(),
+        };
+        const ParamTable s = samplingParams();
+        table.insert(table.end(), s.begin(), s.end());
+        return table;
+    }();
+    return t;
+}
+
+SamplingSpec readSampling(ElementReader& r) {
+    SamplingSpec s;
+    s.type = static_cast<SamplingSpec::Type>(static_cast<int>(r.value("SamplingType")));
+    s.base = static_cast<SamplingSpec::Base>(static_cast<int>(r.value("SamplingBase")));
+    s.baseDirection = static_cast<SamplingSpec::BaseDirection>(static_cast<int>(r.value("SamplingBaseDirection")));
+    s.radius = static_cast<SamplingSpec::Radius>(static_cast<int>(r.value("SamplingRadius")));
+    s.angle = r.value("SamplingAngle");
+    s.speedSamples = static_cast<int>(r.value("SpeedSamples"));
+    s.angleSamples = static_cast<int>(r.value("AngleSamples"));
+    s.randomSamples = static_cast<int>(r.value("RandomSamples"));
+    s.includeBaseAsSample = r.value("IncludeBaseAsSample") != 0.0;
+    return s;
+}
+
+std::string registeredNames() {
+    const std::vector<std::string> names = Registry::instance().names();
+    if (names.empty()) return "(none)";
+    std::string out;
+    for (std::size_t i = 0; i < names.size(); ++i) out += (i ? ", " : "") + names[i];
+    return out;
+}
+
+/// `<costfunction name coeff range …/>`: the component's own table validates the attributes.
+std::optional<ComponentSpec> readComponent(LoadContext& ctx, const std::string& file, const XMLElement* el) {
+    const char* rawName = el->Attribute("name");
+    if (rawName == nullptr) {
+        ctx.diags.error(locOf(file, el), std::string(el->Name()) +
+                                             "@name: missing required value (one of: " + registeredNames() + ")");
+        return std::nullopt;
+    }
+    const std::string name = rawName;
+    const ComponentInfo* info = Registry::instance().find(name);
+    if (info == nullptr) {
+        std::string msg = "unknown cost function '" + name + "'";
+        const std::string hint = closestMatch(name, Registry::instance().names());
+        if (!hint.empty()) msg += " (did you mean '" + hint + "'?)";
+        msg += "; registered: " + registeredNames();
+        const tinyxml2::XMLAttribute* a = el->FindAttribute("name");
+        ctx.diags.error(SourceLoc{file, a->GetLineNum()}, msg);
+        return std::nullopt;
+    }
+    const ParamTable table = Registry::fullTable(*info);
+    ElementReader r(ctx, file, el, info->name, table, {"name"});
+    for (const XMLElement* c = el->FirstChildElement(); c != nullptr; c = c->NextSiblingElement())
+        reportUnexpectedElement(ctx, file, c, el->Name(), {});
+    ComponentSpec spec;
+    spec.name = info->name;
+    spec.loc = r.loc();
+    spec.params = ParamSet(table);
+    for (const ParamSpec& p : table)
+        if (std::optional<double> v = r.optional(p.name)) spec.params.set(p.name, *v);
+    spec.coeff = spec.params.get("coeff");
+    return spec;
+}
+
+/// Reads the components of a 1.x policy or of a step. Returns how many component elements there
+/// were (valid or not), so "no component" is only reported when there really is none.
+int readComponents(LoadContext& ctx, const std::string& file, const XMLElement* el, StepSpec& step,
+                   const std::vector<std::string>& allowed) {
+    int elements = 0;
+    for (const XMLElement* c = el->FirstChildElement(); c != nullptr; c = c->NextSiblingElement()) {
+        if (is(c, "costfunction")) {
+            ++elements;
+            if (std::optional<ComponentSpec> comp = readComponent(ctx, file, c)) step.components.push_back(*comp);
+        } else if (!is(c, "Step")) {  // steps are handled (or refused) by the caller
+            reportUnexpectedElement(ctx, file, c, el->Name(), allowed);
+        }
+    }
+    return elements;
+}
+
+void readStep(LoadContext& ctx, const std::string& file, const XMLElement* el, PolicySpec& policy) {
+    ElementReader r(ctx, file, el, "Step", stepTable());
+    StepSpec step;
+    step.loc = r.loc();
+    step.timing = r.value("DeltaTime") == 1.0 ? StepTiming::Fine : StepTiming::Coarse;
+    step.stopAtGoal = r.value("StopAtGoal") != 0.0;
+    step.method = static_cast<OptimisationMethod>(static_cast<int>(r.value("OptimizationMethod")));
+    step.relaxationTime = r.value("RelaxationTime");
+    step.sampling = readSampling(r);
+    for (const XMLElement* c = el->FirstChildElement(); c != nullptr; c = c->NextSiblingElement())
+        if (is(c, "Step")) reportUnexpectedElement(ctx, file, c, el->Name(), {"costfunction"});
+    const int elements = readComponents(ctx, file, el, step, {"costfunction"});
+    if (elements == 0)
+        r.error(r.loc(), "Step: needs at least one <costfunction> (policy " + std::to_string(policy.id) + ")");
+    policy.steps.push_back(std::move(step));
+}
+
+}  // namespace
+
+void readPolicy(LoadContext& ctx, const std::string& file, const XMLElement* el) {
+    bool hasSteps = false, hasComponents = false;
+    for (const XMLElement* c = el->FirstChildElement(); c != nullptr; c = c->NextSiblingElement()) {
+        hasSteps = hasSteps || is(c, "Step");
+        hasComponents = hasComponents || is(c, "costfunction");
+    }
+    ElementReader r(ctx, file, el, "Policy", policyTable(), {"name"});
+    PolicySpec policy;
+    policy.loc = r.loc();
+    policy.name = r.text("name").value_or("");
+    policy.contactForceScale = r.value("ContactForceScale");
+
+    const std::optional<double> id = r.required("id");
+    bool idUsable = false;
+    if (id) {
+        policy.id = static_cast<int>(*id);
+        auto [it, inserted] = ctx.policyIds.emplace(policy.id, r.loc("id"));
+        if (!inserted)
+            r.error(r.loc("id"), "duplicate policy id " + std::to_string(policy.id) + " (first defined at " +
+                                     it->second.file + ":" + std::to_string(it->second.line) + ")");
+        idUsable = inserted;
+    }
+
+    if (hasSteps) {
+        // SPH-era form: the optimisation settings live on each <Step>.
+        for (const ParamSpec& p : policyTable())
+            if (r.has(p.name) && p.name != "id" && p.name != "ContactForceScale")
+                r.error(r.loc(p.name), "Policy@" + p.name + ": in a policy made of <Step> elements, " + p.name +
+                                           " belongs on each <Step>");
+        if (hasComponents)
+            r.error(r.loc(), "Policy " + std::to_string(policy.id) +
+                                 ": mixes <Step> and <costfunction> children; put every <costfunction> inside a <Step>");
+        for (const XMLElement* c = el->FirstChildElement(); c != nullptr; c = c->NextSiblingElement()) {
+            if (is(c, "Step")) readStep(ctx, file, c, policy);
+            else if (!is(c, "costfunction")) reportUnexpectedElement(ctx, file, c, el->Name(), {"Step"});
+        }
+    } else {
+        // UMANS 1.x form: the policy is a single coarse step.
+        StepSpec step;
+        step.loc = policy.loc;
+        step.timing = StepTiming::Coarse;
+        const std::optional<double> method = r.required("OptimizationMethod");
+        if (method) step.method = static_cast<OptimisationMethod>(static_cast<int>(*method));
+        step.relaxationTime = r.value("RelaxationTime");
+        step.sampling = readSampling(r);
+        const int elements = readComponents(ctx, file, el, step, {"costfunction", "Step"});
+        if (elements == 0)
+            r.error(r.loc(), "Policy " + std::to_string(policy.id) + ": needs at least one <costfunction>");
+        policy.steps.push_back(std::move(step));
+    }
+    if (idUsable) ctx.spec.policies.push_back(std::move(policy));
+}
+
+}  // namespace ch::xmlio
