@@ -9,7 +9,6 @@
 #include <charconv>
 #include <cmath>
 #include <filesystem>
-#include <set>
 #include <stdexcept>
 
 namespace ch {
@@ -83,16 +82,17 @@ void reportUnexpectedElement(LoadContext& ctx, const std::string& file, const XM
                              const std::string& parent, const std::vector<std::string>& allowed) {
     if (reportIfUnsupported(ctx, file, child)) return;
     const std::string name = child->Name();
-    std::string msg = "unknown element <" + name + "> in <" + parent + ">";
+    const std::string where = parent.empty() ? "at the top level" : "in <" + parent + ">";
+    std::string msg = "unknown element <" + name + "> " + where;
     const std::string hint = closestMatch(name, allowed);
     if (!hint.empty()) {
         msg += " (did you mean '" + hint + "'?)";
     } else {
         auto home = homes().find(lowerAscii(name));
         if (home != homes().end())
-            msg = "<" + name + "> is not allowed in <" + parent + ">; it belongs inside " + home->second;
+            msg = "<" + name + "> is not allowed " + where + "; it belongs inside " + home->second;
         else if (allowed.empty())
-            msg = "unexpected element <" + name + "> in <" + parent + "> (it takes no child elements)";
+            msg = "unexpected element <" + name + "> " + where + " (<" + parent + "> takes no child elements)";
         else
             msg += "; allowed here: " + joined(allowed);
     }
@@ -161,6 +161,11 @@ std::optional<double> ElementReader::optional(const std::string& attr) {
         error(loc(attr), display_ + "@" + attr + ": " + why);
         return std::nullopt;
     }
+    // Unbounded whole numbers (counts, ids) end up in an int.
+    if (p.type == ParamType::Integer && p.max >= 1e300 && std::fabs(v) > 2147483647.0) {
+        error(loc(attr), display_ + "@" + attr + ": " + raw + " is too large (at most 2147483647)");
+        return std::nullopt;
+    }
     return v;
 }
 
@@ -205,7 +210,7 @@ std::optional<Vec2> readPoint(LoadContext& ctx, const std::string& file, const X
 
 std::optional<int> readPolicyRef(LoadContext& ctx, const std::string& file, const XMLElement* el) {
     static const ParamTable table = {
-        ParamSpec::integer("id", 0, 0, 2147483647, "id of a <Policy> in <Policies>"),
+        ParamSpec::integer("id", 0, 0, 1e300, "id of a <Policy> in <Policies>"),
     };
     ElementReader r(ctx, file, el, "Policy", table);
     for (const XMLElement* c = el->FirstChildElement(); c != nullptr; c = c->NextSiblingElement())
@@ -263,7 +268,7 @@ bool loadDocument(LoadContext& ctx, const std::string& path, const SourceLoc* na
     namespace fs = std::filesystem;
     std::error_code ec;
     const SourceLoc where = namedBy != nullptr ? *namedBy : SourceLoc{path, 0};
-    const std::string what = namedBy != nullptr
+    const std::string what = namedBy != nullptr && asWritten != path
                                  ? "file '" + asWritten + "' (looked for '" + path + "')"
                                  : "file '" + path + "'";
     if (!fs::exists(path, ec)) {
@@ -316,7 +321,7 @@ void readExternalBlock(LoadContext& ctx, const std::string& file, const XMLEleme
         }
         const bool knownRoot = std::any_of(kRootNames.begin(), kRootNames.end(),
                                            [&](const std::string& r) { return is(top, r.c_str()); });
-        if (!knownRoot) reportUnexpectedElement(ctx, path, top, "file top level", {blockName(kind)});
+        if (!knownRoot) reportUnexpectedElement(ctx, path, top, "", {blockName(kind)});
     }
     if (!found) {
         ctx.diags.error(namedBy, "file '" + name + "' has no <" + blockName(kind) + "> element");
@@ -403,8 +408,8 @@ const ParamTable& outputTable() {
             ParamSpec::real("metrics_interval", "s", d.metricsInterval, 0, 1e300, "time between rows of metrics.csv"),
             ParamSpec::choice("trajectories", {"umans", "txt", "both", "none"}, 3,
                               "trajectory files: UMANS output_<id>.csv, PedPy trajectories.txt, both or none"),
-            ParamSpec::integer("flow_first", d.flowFirst, 1, 2147483647, "flow is measured from this evacuee"),
-            ParamSpec::integer("flow_last", d.flowLast, 1, 2147483647, "… to this evacuee"),
+            ParamSpec::integer("flow_first", d.flowFirst, 1, 1e300, "flow is measured from this evacuee"),
+            ParamSpec::integer("flow_last", d.flowLast, 1, 1e300, "… to this evacuee"),
         };
         table[0].minExclusive = true;
         return table;
@@ -604,7 +609,7 @@ std::optional<ScenarioSpec> loadScenario(const std::string& path, Diagnostics& d
             diags.warning(locOf(path, top), std::string("<") + top->Name() +
                                                 "> outside <Simulation> is ignored; move it inside <Simulation>");
         } else {
-            reportUnexpectedElement(ctx, path, top, "file top level", {"Simulation"});
+            reportUnexpectedElement(ctx, path, top, "", {"Simulation"});
         }
     }
     if (simulation == nullptr) {

@@ -59,6 +59,7 @@ bool is(const XMLElement* el, const char* name);
 SourceLoc locOf(const std::string& file, const XMLElement* el);
 /// Reports a child element that is not allowed where it stands: "not supported yet" for the
 /// planned <Schedule>/<CrowdHealth>, otherwise "unknown element" with a suggestion from `allowed`.
+/// An empty `parent` means the top level of a file.
 void reportUnexpectedElement(LoadContext& ctx, const std::string& file, const XMLElement* child,
                              const std::string& parent, const std::vector<std::string>& allowed);
 /// True for the planned-but-unimplemented extension elements (and reports them).

@@ -1,6 +1,7 @@
 // CrowdHealth — XML loader: <Obstacle> polygons (UMANS) and <Box> walls (CrowdHealth).
 #include "xml_internal.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace ch::xmlio {

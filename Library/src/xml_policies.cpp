@@ -3,7 +3,8 @@
 
 #include "xml_internal.h"
 
-#include <algorithm>
+#include <string>
+#include <vector>
 
 namespace ch::xmlio {
 
@@ -23,9 +24,9 @@ ParamTable samplingParams() {
         ParamSpec::choice("SamplingRadius", {"preferred speed", "maximum speed", "maximum acceleration"},
                           static_cast<int>(d.radius), "radius of the sampled disk or cone"),
         ParamSpec::real("SamplingAngle", "deg", d.angle, 0, 360, "full opening angle of the sampled cone"),
-        ParamSpec::integer("SpeedSamples", d.speedSamples, 1, 2147483647, "regular sampling: number of rings"),
-        ParamSpec::integer("AngleSamples", d.angleSamples, 1, 2147483647, "regular sampling: directions per ring"),
-        ParamSpec::integer("RandomSamples", d.randomSamples, 1, 2147483647, "random sampling: samples per step"),
+        ParamSpec::integer("SpeedSamples", d.speedSamples, 1, 1e300, "regular sampling: number of rings"),
+        ParamSpec::integer("AngleSamples", d.angleSamples, 1, 1e300, "regular sampling: directions per ring"),
+        ParamSpec::integer("RandomSamples", d.randomSamples, 1, 1e300, "random sampling: samples per step"),
         ParamSpec::boolean("IncludeBaseAsSample", d.includeBaseAsSample, "also evaluate the base velocity"),
     };
     t[4].minExclusive = true;
@@ -45,7 +46,7 @@ ParamSpec relaxationParam() {
 /// Attributes a policy takes in both forms.
 ParamTable basePolicyParams() {
     return {
-        ParamSpec::integer("id", 0, 0, 2147483647, "policy id, referred to by agents"),
+        ParamSpec::integer("id", 0, 0, 1e300, "policy id, referred to by agents"),
         ParamSpec::real("ContactForceScale", "1/s2", PolicySpec{}.contactForceScale, 0, 1e300,
                         "UMANS' post-step contact stiffness per unit mass; 0 disables it"),
     };

@@ -1,0 +1,195 @@
+// Diagnostics (message format, suggestions) and parameter tables (ranges, strict parsing).
+#define BOOST_TEST_MODULE xml_diagnostics
+#include <boost/test/unit_test.hpp>
+
+#include "crowdhealth/diagnostics.h"
+#include "crowdhealth/params.h"
+
+#include <sstream>
+#include <stdexcept>
+
+using namespace ch;
+
+BOOST_AUTO_TEST_SUITE(diagnostics)
+
+Diagnostic make(Severity severity, const std::string& file, int line, const std::string& message) {
+    Diagnostic d;
+    d.severity = severity;
+    d.where.file = file;
+    d.where.line = line;
+    d.message = message;
+    return d;
+}
+
+BOOST_AUTO_TEST_CASE(format_is_compiler_style) {
+    BOOST_TEST(make(Severity::Error, "dir/a.xml", 12, "Agent@rad: 0 is not in (0, 10] m").format() ==
+               "dir/a.xml:12: error: Agent@rad: 0 is not in (0, 10] m");
+    BOOST_TEST(make(Severity::Warning, "a.xml", 3, "Agent has no <goal>").format() ==
+               "a.xml:3: warning: Agent has no <goal>");
+    BOOST_TEST(make(Severity::Error, "a.xml", 0, "cannot find file 'a.xml'").format() ==
+               "a.xml: error: cannot find file 'a.xml'");
+}
+
+BOOST_AUTO_TEST_CASE(collects_everything_in_order) {
+    Diagnostics d;
+    BOOST_TEST(!d.hasErrors());
+    d.warning({"f.xml", 1}, "first");
+    BOOST_TEST(!d.hasErrors());
+    d.error({"f.xml", 2}, "second");
+    d.error({"g.xml", 5}, "third");
+    BOOST_TEST(d.hasErrors());
+    BOOST_TEST(d.errorCount() == 2);
+    BOOST_REQUIRE(d.all().size() == 3u);
+    BOOST_TEST((d.all()[0].severity == Severity::Warning));
+    std::ostringstream out;
+    d.print(out);
+    BOOST_TEST(out.str() == "f.xml:1: warning: first\nf.xml:2: error: second\ng.xml:5: error: third\n");
+}
+
+BOOST_AUTO_TEST_CASE(closest_match_suggests_near_names_only) {
+    const std::vector<std::string> attrs = {"rad", "pref_speed", "max_speed", "max_acceleration", "goal_radius"};
+    BOOST_TEST(closestMatch("pref_sped", attrs) == "pref_speed");
+    BOOST_TEST(closestMatch("max_acceleraton", attrs) == "max_acceleration");
+    BOOST_TEST(closestMatch("RAD", attrs) == "rad");           // case-insensitive: distance 0
+    BOOST_TEST(closestMatch("ra", attrs) == "rad");
+    BOOST_TEST(closestMatch("colour", attrs) == "");           // nothing close
+    BOOST_TEST(closestMatch("", attrs) == "");
+    BOOST_TEST(closestMatch("rad", {}) == "");
+    // Threshold max(2, len/3): a 12-letter word may be 4 edits away, a 3-letter one only 2.
+    BOOST_TEST(closestMatch("GoalReachingFrc", {"GoalReachingForce", "SocialForcesAvoidance"}) == "GoalReachingForce");
+    BOOST_TEST(closestMatch("abc", {"xyz"}) == "");
+    BOOST_TEST(closestMatch("abcdefghijkl", {"abcdefghWXYZ"}) == "abcdefghWXYZ");
+    BOOST_TEST(closestMatch("abcdefghijkl", {"abcdefgVWXYZ"}) == "");
+    // The closest wins, not the first within the threshold.
+    BOOST_TEST(closestMatch("World", {"Word", "World"}) == "World");
+}
+
+BOOST_AUTO_TEST_CASE(equals_ignore_case) {
+    BOOST_TEST(equalsIgnoreCase("CostFunction", "costfunction"));
+    BOOST_TEST(equalsIgnoreCase("", ""));
+    BOOST_TEST(!equalsIgnoreCase("Policy", "Policies"));
+    BOOST_TEST(!equalsIgnoreCase("pos", "po"));
+}
+
+BOOST_AUTO_TEST_SUITE_END()
+
+BOOST_AUTO_TEST_SUITE(params)
+
+ParamSpec radius() {
+    ParamSpec p = ParamSpec::real("rad", "m", 0.24, 0, 10, "body radius");
+    p.minExclusive = true;
+    return p;
+}
+
+BOOST_AUTO_TEST_CASE(range_texts) {
+    BOOST_TEST(radius().rangeText() == "(0, 10] m");
+    BOOST_TEST(ParamSpec::real("k", "-", 1, 0, 10, "").rangeText() == "[0, 10]");
+    ParamSpec dt = ParamSpec::real("dt", "s", 0.1, 0, 1e300, "");
+    BOOST_TEST(dt.rangeText() == "[0, inf) s");
+    dt.minExclusive = true;
+    BOOST_TEST(dt.rangeText() == "(0, inf) s");
+    BOOST_TEST(ParamSpec::real("x", "m", 0, -1e300, 1e300, "").rangeText() == "(-inf, inf) m");
+    BOOST_TEST(ParamSpec::real("a", "deg", 1, 0.5, 1e6, "").rangeText() == "[0.5, 1000000] deg");
+    BOOST_TEST(ParamSpec::integer("n", 3, 1, 1e300, "").rangeText() == "[1, inf)");
+    BOOST_TEST(ParamSpec::boolean("b", true, "").rangeText() == "true or false");
+    BOOST_TEST(ParamSpec::choice("wall", {"particles", "analytic"}, 1, "").rangeText() == "one of: particles, analytic");
+}
+
+BOOST_AUTO_TEST_CASE(default_texts) {
+    BOOST_TEST(radius().defaultText() == "0.24");
+    BOOST_TEST(ParamSpec::real("k", "-", 200, 0, 1e300, "").defaultText() == "200");
+    BOOST_TEST(ParamSpec::real("k", "-", 1e-7, 0, 1e300, "").defaultText() == "1e-07");
+    BOOST_TEST(ParamSpec::integer("n", 3, 1, 10, "").defaultText() == "3");
+    BOOST_TEST(ParamSpec::boolean("b", true, "").defaultText() == "true");
+    BOOST_TEST(ParamSpec::boolean("b", false, "").defaultText() == "false");
+    BOOST_TEST(ParamSpec::choice("wall", {"particles", "analytic"}, 1, "").defaultText() == "analytic");
+}
+
+struct Parsed {
+    bool ok;
+    double value;
+    std::string why;
+};
+Parsed parse(const ParamSpec& p, const std::string& text) {
+    Parsed r{false, -12345, ""};
+    r.ok = p.parse(text, r.value, r.why);
+    return r;
+}
+
+BOOST_AUTO_TEST_CASE(real_parsing_is_strict) {
+    const ParamSpec r = radius();
+    BOOST_TEST(parse(r, "0.3").ok);
+    BOOST_TEST(parse(r, "0.3").value == 0.3);
+    BOOST_TEST(parse(r, " 3e-1 ").value == 0.3);  // surrounding blanks are not part of the value
+    BOOST_TEST(parse(r, "+0.3").value == 0.3);
+    BOOST_TEST(parse(r, "10").ok);                 // inclusive maximum
+    BOOST_TEST(parse(r, "0").why == "0 is not in (0, 10] m");
+    BOOST_TEST(parse(r, "10.5").why == "10.5 is not in (0, 10] m");
+    BOOST_TEST(parse(r, "-1").why == "-1 is not in (0, 10] m");
+    BOOST_TEST(parse(r, "abc").why == "'abc' is not a number");
+    BOOST_TEST(parse(r, "0.3m").why == "'0.3m' is not a number");
+    BOOST_TEST(parse(r, "1,5").why == "'1,5' is not a number");
+    BOOST_TEST(parse(r, "").why == "an empty value is not a number");
+    BOOST_TEST(parse(r, "0x1").why == "'0x1' is not a number");
+    BOOST_TEST(parse(r, "nan").why == "'nan' is not a finite number");
+    BOOST_TEST(parse(r, "inf").why == "'inf' is not a finite number");
+    BOOST_TEST(parse(r, "-Infinity").why == "'-Infinity' is not a finite number");
+    BOOST_TEST(parse(r, "1e999").why == "'1e999' is not a finite number");
+    BOOST_TEST(!parse(r, "abc").ok);
+    BOOST_TEST(parse(r, "abc").value == -12345);  // untouched on failure
+    const ParamSpec huge = ParamSpec::real("a_max", "m/s2", 5, 0, 1e300, "");
+    BOOST_TEST(parse(huge, "1e6").value == 1e6);
+}
+
+BOOST_AUTO_TEST_CASE(integer_parsing_is_strict) {
+    const ParamSpec n = ParamSpec::integer("SpeedSamples", 3, 1, 1e300, "");
+    BOOST_TEST(parse(n, "15").value == 15);
+    BOOST_TEST(parse(n, "2.5").why == "'2.5' is not a whole number");
+    BOOST_TEST(parse(n, "3.0").why == "'3.0' is not a whole number");
+    BOOST_TEST(parse(n, "1e3").why == "'1e3' is not a whole number");
+    BOOST_TEST(parse(n, "x").why == "'x' is not a number");
+    BOOST_TEST(parse(n, "0").why == "0 is not in [1, inf)");
+    BOOST_TEST(parse(n, "99999999999999999999999").why == "'99999999999999999999999' is too large");
+}
+
+BOOST_AUTO_TEST_CASE(bool_and_choice_parsing) {
+    const ParamSpec b = ParamSpec::boolean("remove_at_goal", false, "");
+    for (const char* t : {"true", "TRUE", "True", "1"}) BOOST_TEST(parse(b, t).value == 1.0);
+    for (const char* t : {"false", "False", "0"}) BOOST_TEST(parse(b, t).value == 0.0);
+    BOOST_TEST(parse(b, "yes").why == "'yes' is not a boolean (true, false, 1 or 0)");
+    BOOST_TEST(!parse(b, "2").ok);
+
+    const ParamSpec c = ParamSpec::choice("SamplingRadius", {"preferred speed", "maximum speed"}, 0, "");
+    BOOST_TEST(parse(c, "maximum speed").value == 1.0);
+    BOOST_TEST(parse(c, "Maximum Speed").value == 1.0);
+    BOOST_TEST(parse(c, "maximum sped").why ==
+               "'maximum sped' is not one of: preferred speed, maximum speed (did you mean 'maximum speed'?)");
+    BOOST_TEST(parse(c, "fast").why == "'fast' is not one of: preferred speed, maximum speed");
+}
+
+BOOST_AUTO_TEST_CASE(param_set_defaults_and_values) {
+    const ParamTable table = {
+        ParamSpec::real("h", "m", 1.0, 0, 10, ""),
+        ParamSpec::boolean("viscous", true, ""),
+        ParamSpec::choice("walls", {"particles", "analytic"}, 1, ""),
+    };
+    ParamSet s(table);
+    BOOST_TEST(s.get("h") == 1.0);
+    BOOST_TEST(s.flag("viscous"));
+    BOOST_TEST(s.choice("walls") == "analytic");
+    BOOST_TEST(s.has("h"));
+    BOOST_TEST(!s.has("k"));
+    BOOST_CHECK_THROW(s.get("k"), std::out_of_range);
+    BOOST_CHECK_THROW(s.choice("h"), std::out_of_range);
+    s.set("h", 2.5);
+    s.set("walls", 0);
+    s.set("viscous", 0);
+    BOOST_TEST(s.get("h") == 2.5);
+    BOOST_TEST(s.choice("walls") == "particles");
+    BOOST_TEST(!s.flag("viscous"));
+    BOOST_TEST(s.values().size() == 3u);
+    s.set("walls", 7);
+    BOOST_CHECK_THROW(s.choice("walls"), std::out_of_range);
+}
+
+BOOST_AUTO_TEST_SUITE_END()
