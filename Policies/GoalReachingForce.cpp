@@ -11,6 +11,7 @@ ComponentInfo GoalReachingForce::Info() {
     ComponentInfo info;
     info.name = "GoalReachingForce";
     info.kind = ComponentKind::Force;
+    info.defaultRange = 0.0;
     info.summary = "drives the velocity towards the preferred velocity with relaxation time RelaxationTime";
     info.reference = "Helbing & Molnar 1995, Phys. Rev. E 51(5):4282, eq. 2; van Toll et al. 2021 (K_goal)";
     info.params = {ParamSpec::real("strength", "-", 1.0, 0.0, 1e3,

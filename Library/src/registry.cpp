@@ -55,6 +55,8 @@ const ParamTable& Registry::commonParams() {
 
 ParamTable Registry::fullTable(const ComponentInfo& info) {
     ParamTable t = commonParams();
+    for (ParamSpec& p : t)
+        if (p.name == "range") p.defaultValue = info.defaultRange;
     t.insert(t.end(), info.params.begin(), info.params.end());
     return t;
 }

@@ -168,6 +168,7 @@ void Simulation::stepFine() {
             gatherQuery(i, policyRange_[agents_.policy[i]], q);
 
             Vec2 fine(0, 0);
+            Vec2 reported(0, 0);  // contact accelerations reported by components (contactField)
             bool stop = false;
             const bool atGoal = agents_.prefVel[i].squaredNorm() == 0;
             if (coarseBoundary) heldAccel_[i] = Vec2(0, 0);
@@ -181,6 +182,9 @@ void Simulation::stepFine() {
                 } else {
                     fine += s.acceleration(q, contextFor(s));
                 }
+                for (const auto& e : s.components())
+                    if (const std::vector<Vec2>* f = e.component->contactField(); f != nullptr && i < f->size())
+                        reported += e.coeff * (*f)[i];
             }
 
             Vec2 v(0, 0);
@@ -194,7 +198,7 @@ void Simulation::stepFine() {
 
             nextVel_[i] = v;
             nextPos_[i] = world_.wrap(agents_.pos[i] + v * dtFine_);
-            nextContact_[i] = contact;
+            nextContact_[i] = contact + reported;
             // UMANS' viewing direction: mostly the velocity, partly the preferred velocity.
             const Vec2 look = (2.0 * v + agents_.prefVel[i]) / 3.0;
             nextView_[i] = look.squaredNorm() > 0.01 ? Vec2(look.normalized()) : agents_.viewDir[i];

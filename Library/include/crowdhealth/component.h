@@ -100,6 +100,13 @@ public:
     /// Per-agent scalar this component wants recorded (e.g. "rest_density"); empty if none.
     virtual const std::vector<double>* field(const std::string& name) const { (void)name; return nullptr; }
 
+    /// Per-agent contact acceleration (m/s², index = AgentStore index) this component produced in
+    /// its last prepare()/step, or nullptr if it models no body contact. The simulation adds
+    /// coeff × this into AgentStore::contactAccel for every agent whose policy step evaluated the
+    /// component, so recorders see contact from components as well as UMANS' post-clamp contact.
+    /// It must stay aligned with the agents (follow them in remapAgents()).
+    virtual const std::vector<Vec2>* contactField() const { return nullptr; }
+
 protected:
     /// Reads `name` from params into `member` and remembers it for setParameter().
     void bind(const ParamSet& params, const std::string& name, double& member);

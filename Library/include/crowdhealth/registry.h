@@ -20,6 +20,9 @@ struct ComponentInfo {
     std::string summary;      ///< one line: what it does
     std::string reference;    ///< the paper it implements
     ParamTable params;        ///< its own parameters (the common `coeff` and `range` are added)
+    /// Default of the common `range` parameter (m): how far this component looks. 0 for
+    /// components that need no neighbourhood (the step's query then only covers contact reach).
+    double defaultRange = 5.0;
     std::function<std::unique_ptr<Component>(const ParamSet&)> create;
 };
 

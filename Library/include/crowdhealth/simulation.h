@@ -7,6 +7,8 @@
 //      acceleration held for the whole coarse step; every *fine* policy step is evaluated now;
 //   4. integration (forward Euler): a = clamp(a_coarse + a_fine, a_max); v ← clamp(v + a·dt, s_max);
 //      then UMANS' post-clamp contact: v ← v + dt·F_contact/m; x ← x + v·dt; toric wrap;
+//      AgentStore::contactAccel = UMANS' contact + Σ coeff·contactField() of the components the
+//      agent's policy evaluated (e.g. ContactForces, which acts inside the clamp);
 //   5. time advances; agents within their goal radius with remove_at_goal are removed (recorded
 //      as evacuations); in a planar world agents outside the bounds are removed.
 // Every per-agent phase reads the frozen state and writes only that agent's slot of the next

@@ -1,0 +1,193 @@
+// CrowdHealth — SPH crowds (van Toll et al. 2021), see SPH.h.
+#include "SPH.h"
+
+#include "WallArea.h"
+
+#include "crowdhealth/kernels.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace ch {
+
+CH_REGISTER_COMPONENT(SPH);
+
+ComponentInfo SPH::Info() {
+    ComponentInfo info;
+    info.name = "SPH";
+    info.kind = ComponentKind::Force;
+    info.defaultRange = 1.0;
+    info.summary = "crowd as a fluid: SPH density, dynamic rest density, pressure (only when compressed) and viscosity; "
+                   "range = smoothing length h (capped at 1 m)";
+    info.reference = "van Toll et al. 2021, SPH crowds, Computers & Graphics 98; Mueller, Charypar & Gross 2003 (kernels)";
+    ParamSpec T = ParamSpec::real("densityAdaptationTime", "s", 0.1, 0.0, 1e4,
+                                  "T_rho: time scale of the moving average that gives the rest density");
+    T.minExclusive = true;
+    info.params = {
+        ParamSpec::real("gasConstant", "m2/s2", 200.0, 0.0, 1e6, "k: pressure per unit of excess density, p = k (rho - rho0)"),
+        ParamSpec::real("restDensityMin", "1/m2", 0.0, 0.0, 1e3, "rho0_min: lower clamp of the dynamic rest density"),
+        ParamSpec::real("restDensityMax", "1/m2", 5.0, 0.0, 1e3, "rho0_max: upper clamp of the dynamic rest density"),
+        T,
+        ParamSpec::real("viscosity", "1/s", 0.0, 0.0, 1e4, "mu: viscosity (velocity smoothing between neighbours)"),
+        ParamSpec::choice("walls", {"particles", "analytic"}, 1,
+                          "wall density from static boundary particles (<Box particles=\"true\">) or from the area of "
+                          "the kernel disc behind each wall segment, with occlusion"),
+    };
+    info.create = [](const ParamSet& p) { return std::make_unique<SPH>(p); };
+    return info;
+}
+
+SPH::SPH(const ParamSet& params) {
+    bind(params, "range", range_);
+    bind(params, "gasConstant", gasConstant_);
+    bind(params, "restDensityMin", restDensityMin_);
+    bind(params, "restDensityMax", restDensityMax_);
+    bind(params, "densityAdaptationTime", adaptationTime_);
+    bind(params, "viscosity", viscosity_);
+    bind(params, "walls", walls_);
+}
+
+double SPH::smoothingLength() const { return std::min(range_, kMaxSmoothingLength); }
+
+double SPH::clampRest(double v) const {
+    // ρ0_max wins if a schedule ever moves ρ0_min above it.
+    return std::min(std::max(v, restDensityMin_), restDensityMax_);
+}
+
+void SPH::remapAgents(const std::vector<int>& previous) {
+    auto remap = [&](auto& column, auto fresh) {
+        std::remove_reference_t<decltype(column)> out(previous.size(), fresh);
+        for (std::size_t i = 0; i < previous.size(); ++i) {
+            const int p = previous[i];
+            if (p >= 0 && static_cast<std::size_t>(p) < column.size()) out[i] = column[static_cast<std::size_t>(p)];
+        }
+        column.swap(out);
+    };
+    remap(density_, 0.0);
+    remap(restDensity_, 0.0);
+    remap(pressure_, 0.0);
+    remap(average_, 0.0);
+    remap(known_, static_cast<unsigned char>(0));
+}
+
+void SPH::prepare(const StepContext& ctx) {
+    const AgentStore& A = ctx.agents;
+    const std::size_t n = A.size();
+    density_.resize(n, 0.0);
+    restDensity_.resize(n, 0.0);
+    pressure_.resize(n, 0.0);
+    average_.resize(n, 0.0);
+    known_.resize(n, 0);
+
+    const double h = smoothingLength();
+    const double w = std::min(1.0, ctx.dt / adaptationTime_);
+    const bool analytic = analyticWalls();
+    const std::vector<Vec2>& particles = ctx.world.boundaryParticles();
+    const PointGrid& particleGrid = ctx.world.particleGrid();
+    const bool useParticles = !analytic && !particles.empty();
+
+#pragma omp parallel
+    {
+        std::vector<int> near;
+        std::vector<wallarea::WallPiece> pieces;
+#pragma omp for schedule(static)
+        for (std::ptrdiff_t ii = 0; ii < static_cast<std::ptrdiff_t>(n); ++ii) {
+            const std::size_t i = static_cast<std::size_t>(ii);
+            const Vec2& x = A.pos[i];
+            double rho = 0;  // the agent itself is in the grid (r = 0)
+            ctx.grid.forEachWithin(x, h, [&](int j, const Vec2&, double d2) { rho += A.mass[j] * kernels::poly6(d2, h); });
+            if (useParticles) {
+                particleGrid.forEachWithin(x, h, [&](int, const Vec2&, double d2) { rho += kernels::poly6(d2, h); });
+            } else if (analytic) {
+                // Walls are fluid at the agent's rest density (the previous step's; at the first
+                // step, the clamp of its density without walls).
+                const double rest = known_[i] ? restDensity_[i] : clampRest(rho);
+                ctx.world.segmentsNear(x, h, near);
+                wallarea::occludedAreas(x, h, ctx.world.segments(), near, pieces);
+                for (const wallarea::WallPiece& s : pieces) {
+                    const double r = 0.5 * (s.distance + h);
+                    rho += s.area * rest * kernels::poly6(r * r, h);
+                }
+            }
+            average_[i] = known_[i] ? (1.0 - w) * average_[i] + w * rho : rho;
+            known_[i] = 1;
+            density_[i] = rho;
+            restDensity_[i] = clampRest(average_[i]);
+            pressure_[i] = gasConstant_ * (rho - restDensity_[i]);
+        }
+    }
+
+    if (!useParticles) return;
+    // Boundary particles: density from agents and particles (itself included), same rest-density
+    // rule; they take part in the agents' pressure sums but never move.
+    const std::size_t np = particles.size();
+    wallDensity_.resize(np, 0.0);
+    wallPressure_.resize(np, 0.0);
+    wallAverage_.resize(np, 0.0);
+    wallKnown_.resize(np, 0);
+#pragma omp parallel for schedule(static)
+    for (std::ptrdiff_t kk = 0; kk < static_cast<std::ptrdiff_t>(np); ++kk) {
+        const std::size_t k = static_cast<std::size_t>(kk);
+        const Vec2& x = particles[k];
+        double rho = 0;
+        ctx.grid.forEachWithin(x, h, [&](int j, const Vec2&, double d2) { rho += A.mass[j] * kernels::poly6(d2, h); });
+        particleGrid.forEachWithin(x, h, [&](int, const Vec2&, double d2) { rho += kernels::poly6(d2, h); });
+        wallAverage_[k] = wallKnown_[k] ? (1.0 - w) * wallAverage_[k] + w * rho : rho;
+        wallKnown_[k] = 1;
+        wallDensity_[k] = rho;
+        wallPressure_[k] = gasConstant_ * (rho - clampRest(wallAverage_[k]));
+    }
+}
+
+Vec2 SPH::acceleration(const AgentQuery& q, const StepContext& ctx) const {
+    const std::size_t i = static_cast<std::size_t>(q.i);
+    if (i >= density_.size() || !(density_[i] > 0)) return {0, 0};
+    const AgentStore& A = ctx.agents;
+    const double h = smoothingLength();
+    const double rhoI = density_[i], pI = pressure_[i];
+    const bool pressure = pI > 0;  // absolute pressure: only a compressed agent is pushed
+
+    Vec2 a(0, 0);
+    for (const NeighbourAgent& nb : q.agents) {
+        if (nb.distance >= h || nb.distance < 1e-12) continue;
+        const std::size_t j = static_cast<std::size_t>(nb.index);
+        const double rhoJ = density_[j];
+        if (!(rhoJ > 0)) continue;
+        if (pressure) {
+            const Vec2 away = -nb.offset / nb.distance;  // from j to i
+            a += A.mass[j] * (pI + pressure_[j]) / (2.0 * rhoJ) * kernels::spikyGradMagnitude(nb.distance, h) * away;
+        }
+        if (viscosity_ > 0)
+            a += viscosity_ * A.mass[j] / rhoJ * kernels::viscosityLaplacian(nb.distance, h) * (A.vel[j] - q.velocity);
+    }
+
+    if (pressure && !analyticWalls() && !wallDensity_.empty()) {
+        ctx.world.particleGrid().forEachWithin(q.position, h, [&](int k, const Vec2& d, double d2) {
+            const double r = std::sqrt(d2);
+            const double rhoK = wallDensity_[static_cast<std::size_t>(k)];
+            if (r < 1e-12 || !(rhoK > 0)) return;
+            a += (pI + wallPressure_[static_cast<std::size_t>(k)]) / (2.0 * rhoK) * kernels::spikyGradMagnitude(r, h) *
+                 Vec2(-d / r);
+        });
+    } else if (pressure && analyticWalls()) {
+        std::vector<int> near;
+        std::vector<wallarea::WallPiece> pieces;
+        ctx.world.segmentsNear(q.position, h, near);
+        wallarea::occludedAreas(q.position, h, ctx.world.segments(), near, pieces);
+        for (const wallarea::WallPiece& s : pieces) {
+            if (s.distance < 1e-12) continue;
+            const double r = 0.5 * (s.distance + h);
+            a += s.area * pI * kernels::spikyGradMagnitude(r, h) * Vec2((q.position - s.nearest) / s.distance);
+        }
+    }
+    return a / rhoI;
+}
+
+const std::vector<double>* SPH::field(const std::string& name) const {
+    if (name == "density") return &density_;
+    if (name == "rest_density") return &restDensity_;
+    if (name == "pressure") return &pressure_;
+    return nullptr;
+}
+
+}  // namespace ch

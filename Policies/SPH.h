@@ -1,0 +1,67 @@
+// CrowdHealth — SPH: the crowd as a fluid (van Toll, Chatagnon, Appert-Rolland, Cinquin, Pettré;
+// "SPH crowds: agent-based crowd simulation up to extreme densities using fluid dynamics",
+// Computers & Graphics 98, 2021), as the CrowdHealth paper re-designs it (DESIGN §4).
+#pragma once
+
+#include "crowdhealth/registry.h"
+
+#include <vector>
+
+namespace ch {
+
+/// Density, dynamic rest density, pressure and viscosity with the 2D kernels of Müller et al.
+/// (2003) and smoothing length h = `range`, capped at kMaxSmoothingLength ("limited smoothing
+/// length"). Per step, in prepare():
+///   ρ_i  = Σ_j m_j W(|x_i − x_j|)  (j over agents within h, i included) + walls;
+///   ρ̄_i ← (1 − w) ρ̄_i + w ρ_i,  w = min(1, Δt/T_ρ);  ρ̄_i starts at the agent's first ρ_i;
+///   ρ0_i = clamp(ρ̄_i, ρ0_min, ρ0_max);  p_i = k (ρ_i − ρ0_i).
+/// Walls (`walls`):
+///   * analytic (default) — per wall segment, the area V_s of the kernel disc hidden behind it,
+///     each direction counting only the first segment hit (WallArea.h); the segment acts as fluid
+///     at the agent's rest density at the point halfway between the segment's nearest point and
+///     the kernel edge, r_s = (d_s + h)/2:  ρ_i += V_s ρ0_i W(r_s) (ρ0_i of the previous step);
+///   * particles — the World's static boundary particles (mass 1) count in ρ_i. They never move:
+///     only their density (and from it their own rest density and pressure) is computed.
+/// Acceleration on agent i, only while p_i > 0 for the pressure term ("absolute pressure"):
+///   a_i = (1/ρ_i) [ Σ_j m_j (p_i + p_j)/(2ρ_j) S(r_ij) x̂_ji  +  μ Σ_j m_j/ρ_j (v_j − v_i) L(r_ij) ]
+///   with S the spiky gradient magnitude, L the viscosity Laplacian, x̂_ji the unit vector from j
+///   to i; analytic walls add V_s p_i S(r_s) (away from the nearest point) to the pressure sum
+///   (wall pressure = p_i, wall density = ρ0_i). Walls get no viscosity (agents would stick).
+class SPH : public ForceComponent {
+public:
+    /// "Limited smoothing length": h = min(range, this) (m). Also the default, since the common
+    /// `range` defaults to 5 m.
+    static constexpr double kMaxSmoothingLength = 1.0;
+
+    explicit SPH(const ParamSet& params);
+    static ComponentInfo Info();
+
+    void prepare(const StepContext& ctx) override;
+    Vec2 acceleration(const AgentQuery& q, const StepContext& ctx) const override;
+    void remapAgents(const std::vector<int>& previous) override;
+    /// "density", "rest_density" (ρ0_i, after the clamp) or "pressure", per agent.
+    const std::vector<double>* field(const std::string& name) const override;
+
+    double smoothingLength() const;
+    bool analyticWalls() const { return walls_ != 0.0; }
+
+private:
+    double gasConstant_ = 200;        ///< k, m²/s²
+    double restDensityMin_ = 0;       ///< ρ0_min, 1/m²
+    double restDensityMax_ = 5;       ///< ρ0_max, 1/m²
+    double adaptationTime_ = 0.1;     ///< T_ρ, s
+    double viscosity_ = 0;            ///< μ, 1/s
+    double walls_ = 1;                ///< Choice: 0 = particles, 1 = analytic
+
+    // per agent (index = AgentStore index), filled by prepare()
+    std::vector<double> density_, restDensity_, pressure_;
+    std::vector<double> average_;       ///< ρ̄_i, kept across steps
+    std::vector<unsigned char> known_;  ///< 1 once ρ̄_i has been started
+    // per boundary particle (index = World::boundaryParticles())
+    std::vector<double> wallDensity_, wallPressure_, wallAverage_;
+    std::vector<unsigned char> wallKnown_;
+
+    double clampRest(double v) const;
+};
+
+}  // namespace ch

@@ -1,0 +1,69 @@
+// CrowdHealth tests — reproduces van Toll et al. 2021, Table 1, profile SPH (DESIGN §7): the
+// doorway with rho0_max = 3 and 5, mean over 3 seeds, against the published density at 15 s
+// (within 10 %) and flow 349/(t350 − t1) (within 15 %). Runs the shipped example files.
+// Labelled `reference` (about 10 s of simulation on one core).
+#define BOOST_TEST_MODULE sph_reference
+#include <boost/test/unit_test.hpp>
+
+#include "crowdhealth/simulation.h"
+#include "crowdhealth/xml.h"
+
+#include <cmath>
+#include <string>
+
+using namespace ch;
+
+namespace {
+
+struct Measured {
+    double density15 = 0;  ///< mean SPH density over the agents at t = 15 s (1/m²)
+    double flow = 0;       ///< 349 / (t350 − t1), P/s
+};
+
+Measured runOnce(const std::string& file, std::uint64_t seed) {
+    Diagnostics diags;
+    LoadOptions options;
+    options.seed = seed;
+    auto spec = loadScenario(file, diags, options);
+    BOOST_TEST_REQUIRE(spec.has_value(), "cannot load " << file);
+    Simulation sim(*spec);
+    sim.setThreads(1);
+    Component* sph = sim.policies().at(0).findComponent("SPH");
+    BOOST_TEST_REQUIRE(sph != nullptr);
+    Measured m;
+    while (!sim.finished() && sim.evacuations().size() < 350) {
+        sim.stepCoarse();
+        if (std::abs(sim.time() - 15.0) < 1e-9) {
+            const std::vector<double>& d = *sph->field("density");
+            double sum = 0;
+            for (double v : d) sum += v;
+            m.density15 = d.empty() ? 0.0 : sum / static_cast<double>(d.size());
+        }
+    }
+    const auto& ev = sim.evacuations();
+    BOOST_TEST_REQUIRE(ev.size() >= 350u, file << " seed " << seed << ": only " << ev.size() << " evacuated");
+    m.flow = 349.0 / (ev[349].time - ev[0].time);
+    return m;
+}
+
+void check(int rho0max, double paperDensity, double paperFlow) {
+    const std::string file =
+        std::string(CH_SOURCE_DIR) + "/Examples/doorway/vantoll/sph-rho" + std::to_string(rho0max) + ".xml";
+    Measured mean;
+    const int seeds = 3;
+    for (int s = 1; s <= seeds; ++s) {
+        const Measured m = runOnce(file, static_cast<std::uint64_t>(s));
+        BOOST_TEST_MESSAGE("rho0_max " << rho0max << " seed " << s << ": density@15s " << m.density15 << ", flow " << m.flow);
+        mean.density15 += m.density15 / seeds;
+        mean.flow += m.flow / seeds;
+    }
+    BOOST_TEST_MESSAGE("rho0_max " << rho0max << " mean: density@15s " << mean.density15 << " (paper " << paperDensity
+                                   << "), flow " << mean.flow << " (paper " << paperFlow << ")");
+    BOOST_TEST(std::abs(mean.density15 - paperDensity) <= 0.10 * paperDensity);
+    BOOST_TEST(std::abs(mean.flow - paperFlow) <= 0.15 * paperFlow);
+}
+
+}  // namespace
+
+BOOST_AUTO_TEST_CASE(vantoll_sph_rho0max_3) { check(3, 3.27, 3.08); }
+BOOST_AUTO_TEST_CASE(vantoll_sph_rho0max_5) { check(5, 5.09, 4.89); }
