@@ -217,7 +217,8 @@ MetricsRow measureMetrics(Simulation& sim, double h) {
             sum += (*fields[p])[i];
             ++count;
         }
-        row.meanRestDensity = count > 0 ? sum / static_cast<double>(count) : 0.0;
+        // No value yet (e.g. at t = 0, before the component's first step): an empty cell, not 0.
+        row.meanRestDensity = count > 0 ? sum / static_cast<double>(count) : std::numeric_limits<double>::quiet_NaN();
     }
 
     // CrowdHealth layer (panic, injury) does not exist yet: the columns stay, at 0.

@@ -64,8 +64,10 @@ Simulation::Simulation(const ScenarioSpec& spec)
 void Simulation::setThreads(int n) { omp_set_num_threads(std::max(1, n)); }
 
 bool Simulation::finished() const {
-    if (endTime_ >= 0) return time() >= endTime_ - 0.5 * dtFine_;
-    return agents_.empty() && pending() == 0;
+    // Nothing left to simulate once every agent has left (evacuation runs end there even when
+    // the scenario names a later end_time).
+    if (agents_.empty() && pending() == 0) return true;
+    return endTime_ >= 0 && time() >= endTime_ - 0.5 * dtFine_;
 }
 
 void Simulation::activatePending() {

@@ -97,7 +97,7 @@ struct MetricsRow {
     double meanDensity = 0;       ///< SPH density (Poly6, h = 1 m, walls included), 1/m²
     double maxDensity = 0;        ///< 1/m²
     /// Mean of the component field "rest_density" over the agents whose policy provides it
-    /// (1/m²); NaN (an empty cell) when no component provides it.
+    /// (1/m²); NaN (an empty cell) when no component provides it or none has a value yet.
     double meanRestDensity = 0;
     double meanSpeed = 0, maxSpeed = 0;                 ///< m/s
     double meanContactAccel = 0, maxContactAccel = 0;   ///< m/s²
@@ -118,7 +118,8 @@ MetricsRow measureMetrics(Simulation& sim, double h = 1.0);
 std::vector<double> crowdPressure(const AgentStore& agents, const std::vector<double>& density,
                                   const World& world, double h = 1.0);
 
-/// The largest values seen over all samples.
+/// The largest values over the rows of metrics.csv (so sampled every metrics interval, not every
+/// step: a peak between two rows is not seen).
 struct MetricsPeaks {
     double maxDensity = 0;          ///< 1/m²
     double maxMeanDensity = 0;      ///< 1/m²
@@ -214,7 +215,7 @@ private:
 struct RunInfo {
     std::string scenario;            ///< path of the scenario file as given ("" = spec.sourceFile)
     double endTime = -1;             ///< s, the end time used (< 0: none, ran until empty/cap)
-    std::string endTimeSource;       ///< "scenario", "command line", "safety cap" or "none"
+    std::string endTimeSource;       ///< "scenario", "command line" or "none" (then a safety cap applies)
     bool interrupted = false;        ///< stopped by SIGINT/SIGTERM
     bool stoppedAtSafetyCap = false; ///< stopped because the safety cap on simulated time hit
     double wallTimeSeconds = 0;      ///< wall-clock duration of the simulation loop (display only)

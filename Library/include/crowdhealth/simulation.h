@@ -53,7 +53,7 @@ public:
     /// End time (s); < 0 means "until no agent is left".
     double endTime() const { return endTime_; }
     void setEndTime(double t) { endTime_ = t; }
-    /// True once time ≥ end time, or — without an end time — when no agent is active or waiting.
+    /// True once time ≥ end time, or when no agent is active or waiting any more.
     bool finished() const;
 
     const ScenarioSpec& spec() const { return spec_; }

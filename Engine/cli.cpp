@@ -1,0 +1,180 @@
+// crowdhealth — command-line parsing (see cli.h).
+#include "cli.h"
+
+#include <boost/program_options.hpp>
+
+#include <charconv>
+#include <cmath>
+#include <ostream>
+#include <sstream>
+
+#ifndef CH_VERSION
+#define CH_VERSION "unknown"
+#endif
+
+namespace chcli {
+
+namespace po = boost::program_options;
+
+namespace {
+
+// Numbers are taken as strings and checked here: Boost's lexical_cast would turn "--seed -1"
+// into 18446744073709551615 and accept "-t 2abc" in some versions.
+bool parseUnsigned(const std::string& text, std::uint64_t& value) {
+    const char* end = text.data() + text.size();
+    const auto res = std::from_chars(text.data(), end, value);
+    return !text.empty() && res.ec == std::errc() && res.ptr == end;
+}
+
+bool parseDouble(const std::string& text, double& value) {
+    const char* end = text.data() + text.size();
+    const auto res = std::from_chars(text.data(), end, value);
+    return !text.empty() && res.ec == std::errc() && res.ptr == end;
+}
+
+po::options_description visibleOptions() {
+    po::options_description d("Options");
+    // clang-format off
+    d.add_options()
+        ("input,i", po::value<std::string>()->value_name("SCENARIO"), "scenario XML file to run")
+        ("output,o", po::value<std::string>()->value_name("OUTDIR"),
+         "folder for the outputs (created if missing)")
+        ("threads,t", po::value<std::string>()->value_name("N"),
+         "OpenMP threads (default: one per hardware thread; results do not depend on it)")
+        ("seed", po::value<std::string>()->value_name("N"), "random seed, overrides Simulation@seed")
+        ("end-time", po::value<std::string>()->value_name("T"),
+         "simulated time to stop at (s), overrides Simulation@end_time")
+        ("trajectories", po::value<std::string>()->value_name("umans|txt|both|none"),
+         "trajectory files: UMANS output_<id>.csv, PedPy trajectories.txt, both or none "
+         "(default: the scenario's <Output>, else none)")
+        ("quiet,q", "no progress bar and no closing summary")
+        ("check", "validate the scenario (load and build it), print a one-line summary, write nothing")
+        ("list-policies", "list every registered cost function and force with its parameters")
+        ("format", po::value<std::string>()->value_name("text|markdown"),
+         "output format of --list-policies (default: text)")
+        ("help,h", "show this help")
+        ("version", "show the version");
+    // clang-format on
+    return d;
+}
+
+po::options_description hiddenOptions() {
+    po::options_description d("Hidden");
+    d.add_options()("debug-interrupt-after", po::value<std::string>(), "raise SIGINT after N coarse steps");
+    return d;
+}
+
+bool usageError(std::ostream& err, const std::string& message) {
+    err << "crowdhealth: error: " << message << "\nTry 'crowdhealth --help' for more information.\n";
+    return false;
+}
+
+}  // namespace
+
+void printVersion(std::ostream& out) { out << "crowdhealth " << CH_VERSION << "\n"; }
+
+void printHelp(std::ostream& out) {
+    out << "Usage: crowdhealth -i SCENARIO -o OUTDIR [options]\n"
+           "       crowdhealth -i SCENARIO --check\n"
+           "       crowdhealth --list-policies [--format text|markdown]\n\n"
+           "Runs a CrowdHealth (UMANS-compatible) crowd scenario and writes metrics.csv,\n"
+           "evacuations.csv, summary.json and optionally trajectories to OUTDIR.\n\n";
+    out << visibleOptions() << "\n";
+    out << "Exit status:\n"
+           "  0    success\n"
+           "  1    runtime failure (e.g. OUTDIR cannot be written)\n"
+           "  2    bad command line or scenario errors (printed as path:line: error: ...);\n"
+           "       nothing is simulated or written\n"
+           "  130  interrupted by Ctrl-C (SIGINT) or SIGTERM; outputs cover the time simulated\n";
+}
+
+std::optional<Options> parseCommandLine(int argc, const char* const argv[], std::ostream& err) {
+    po::options_description all;
+    all.add(visibleOptions()).add(hiddenOptions());
+    po::variables_map vm;
+    try {
+        // No positional options: a stray word is an error, not a silently ignored scenario.
+        po::store(po::command_line_parser(argc, argv).options(all).positional({}).run(), vm);
+        po::notify(vm);
+    } catch (const po::error& e) {
+        usageError(err, e.what());
+        return std::nullopt;
+    }
+
+    Options o;
+    const auto str = [&](const char* name) { return vm[name].as<std::string>(); };
+
+    if (vm.count("help")) { o.command = Command::Help; return o; }
+    if (vm.count("version")) { o.command = Command::Version; return o; }
+
+    if (vm.count("format")) {
+        const std::string f = str("format");
+        if (f == "text") o.format = ListFormat::Text;
+        else if (f == "markdown" || f == "md") o.format = ListFormat::Markdown;
+        else { usageError(err, "--format must be 'text' or 'markdown', not '" + f + "'"); return std::nullopt; }
+        if (!vm.count("list-policies")) { usageError(err, "--format only applies to --list-policies"); return std::nullopt; }
+    }
+    if (vm.count("list-policies")) {
+        if (vm.count("check") || vm.count("input")) {
+            usageError(err, "--list-policies takes no scenario (-i) and cannot be combined with --check");
+            return std::nullopt;
+        }
+        o.command = Command::ListPolicies;
+        return o;
+    }
+
+    o.command = vm.count("check") ? Command::Check : Command::Run;
+    o.quiet = vm.count("quiet") != 0;
+    if (!vm.count("input")) { usageError(err, "no scenario given: use -i SCENARIO"); return std::nullopt; }
+    o.input = str("input");
+    if (o.input.empty()) { usageError(err, "the scenario path (-i) is empty"); return std::nullopt; }
+    if (vm.count("output")) o.output = str("output");
+    if (o.command == Command::Run && o.output.empty()) {
+        usageError(err, "no output folder given: use -o OUTDIR (or --check to only validate)");
+        return std::nullopt;
+    }
+
+    if (vm.count("threads")) {
+        std::uint64_t t = 0;
+        if (!parseUnsigned(str("threads"), t) || t < 1 || t > 4096) {
+            usageError(err, "--threads must be a whole number from 1 to 4096, not '" + str("threads") + "'");
+            return std::nullopt;
+        }
+        o.threads = static_cast<int>(t);
+    }
+    if (vm.count("seed")) {
+        std::uint64_t s = 0;
+        if (!parseUnsigned(str("seed"), s)) {
+            usageError(err, "--seed must be a whole number from 0 to 18446744073709551615, not '" + str("seed") + "'");
+            return std::nullopt;
+        }
+        o.seed = s;
+    }
+    if (vm.count("end-time")) {
+        double t = 0;
+        if (!parseDouble(str("end-time"), t) || !std::isfinite(t) || t <= 0) {
+            usageError(err, "--end-time must be a positive number of seconds, not '" + str("end-time") + "'");
+            return std::nullopt;
+        }
+        o.endTime = t;
+    }
+    if (vm.count("trajectories")) {
+        const std::string t = str("trajectories");
+        if (t != "umans" && t != "txt" && t != "both" && t != "none") {
+            usageError(err, "--trajectories must be one of umans, txt, both, none; not '" + t + "'");
+            return std::nullopt;
+        }
+        o.trajectories = t;
+    }
+    if (vm.count("debug-interrupt-after")) {
+        std::uint64_t n = 0;
+        if (!parseUnsigned(str("debug-interrupt-after"), n)) {
+            usageError(err, "--debug-interrupt-after must be a whole number of steps");
+            return std::nullopt;
+        }
+        o.interruptAfterSteps = n;
+    }
+    return o;
+}
+
+}  // namespace chcli

@@ -1,0 +1,38 @@
+// crowdhealth — command-line parsing (Boost.Program_options).
+#pragma once
+
+#include <cstdint>
+#include <iosfwd>
+#include <optional>
+#include <string>
+
+namespace chcli {
+
+enum class Command { Run, Check, ListPolicies, Help, Version };
+enum class ListFormat { Text, Markdown };
+
+struct Options {
+    Command command = Command::Run;
+    std::string input;               ///< -i: scenario XML
+    std::string output;              ///< -o: output folder
+    int threads = 0;                 ///< -t: OpenMP threads; 0 = one per hardware thread
+    std::optional<std::uint64_t> seed;     ///< --seed: overrides Simulation@seed
+    std::optional<double> endTime;         ///< --end-time (s): overrides Simulation@end_time
+    std::optional<std::string> trajectories;  ///< umans|txt|both|none; default from <Output>
+    bool quiet = false;
+    ListFormat format = ListFormat::Text;
+    /// Hidden, for tests: raise SIGINT after this many coarse steps (exercises the real
+    /// Ctrl-C path deterministically, without timing).
+    std::optional<std::uint64_t> interruptAfterSteps;
+};
+
+/// Parses argv. On success returns the options; on a usage error prints a message (and a hint
+/// to --help) to `err` and returns std::nullopt (the caller exits with status 2).
+std::optional<Options> parseCommandLine(int argc, const char* const argv[], std::ostream& err);
+
+/// The --help text.
+void printHelp(std::ostream& out);
+/// The --version line.
+void printVersion(std::ostream& out);
+
+}  // namespace chcli

@@ -1,0 +1,111 @@
+// The output writers of crowdhealth/output.h on their own: atomic files, number formatting,
+// crowd pressure, flow.
+#define BOOST_TEST_MODULE cli_writers
+#include <boost/test/unit_test.hpp>
+
+#include "cli_support.h"
+
+#include <crowdhealth/output.h>
+
+#include <clocale>
+#include <cmath>
+
+using namespace clitest;
+
+BOOST_AUTO_TEST_CASE(atomic_file_appears_only_on_commit_and_leaves_no_tmp) {
+    const fs::path dir = freshDir(caseName());
+    const fs::path target = dir / "a.csv";
+    {
+        ch::AtomicFile f(target);
+        f.write("x,y\n1,2\n");
+        BOOST_TEST(!fs::exists(target));         // nothing under the final name while writing
+        BOOST_TEST(fs::exists(f.temporary()));
+        f.commit();
+    }
+    BOOST_TEST(readFile(target) == "x,y\n1,2\n");
+    BOOST_TEST(tmpFiles(dir).empty());
+}
+
+BOOST_AUTO_TEST_CASE(abandoned_atomic_file_keeps_the_old_content_and_removes_its_tmp) {
+    const fs::path dir = freshDir(caseName());
+    const fs::path target = dir / "a.csv";
+    ch::writeFileAtomic(target, "old\n");
+    {
+        ch::AtomicFile f(target);
+        f.write("half a fi");
+        // destroyed without commit(), as when an exception unwinds mid-write
+    }
+    BOOST_TEST(readFile(target) == "old\n");
+    BOOST_TEST(tmpFiles(dir).empty());
+}
+
+BOOST_AUTO_TEST_CASE(atomic_file_in_a_missing_folder_throws_output_error) {
+    const fs::path dir = freshDir(caseName());
+    BOOST_CHECK_THROW(ch::writeFileAtomic(dir / "no" / "such" / "a.csv", "x"), ch::OutputError);
+}
+
+BOOST_AUTO_TEST_CASE(numbers_are_written_the_same_under_any_locale) {
+    // Under a locale with a decimal comma, printf would write "0,5"; to_chars must not.
+    const char* old = std::setlocale(LC_NUMERIC, nullptr);
+    const std::string saved = old ? old : "C";
+    const bool switched = std::setlocale(LC_NUMERIC, "de_DE.UTF-8") != nullptr ||
+                          std::setlocale(LC_NUMERIC, "fr_FR.UTF-8") != nullptr;
+    BOOST_TEST(ch::formatNumber(0.5) == "0.5");
+    BOOST_TEST(ch::formatNumber(1234567.0) == "1.23457e+06");
+    BOOST_TEST(ch::formatNumber(3 * 0.1) == "0.3");  // 0.30000000000000004 at 6 digits
+    BOOST_TEST(ch::formatNumber(-0.0) == "0");
+    BOOST_TEST(ch::formatNumber(std::nan("")) == "nan");
+    BOOST_TEST(ch::jsonNumber(std::nan("")) == "null");
+    BOOST_TEST(ch::jsonNumber(92 * 0.1) == "9.2");
+    std::setlocale(LC_NUMERIC, saved.c_str());
+    BOOST_TEST_MESSAGE("decimal-comma locale " << (switched ? "used" : "not installed; checked under C only"));
+}
+
+BOOST_AUTO_TEST_CASE(json_strings_are_escaped) {
+    BOOST_TEST(ch::jsonString("a\"b\\c\nd") == "\"a\\\"b\\\\c\\nd\"");
+    BOOST_TEST(ch::jsonString(std::string("\x01", 1)) == "\"\\u0001\"");
+}
+
+BOOST_AUTO_TEST_CASE(flow_counts_persons_between_the_first_and_last_evacuee) {
+    std::vector<ch::Evacuation> e;
+    for (int i = 0; i < 5; ++i) e.push_back({i, 10.0 + 0.5 * i});  // one every 0.5 s
+    const auto f = ch::evacuationFlow(e, 1, 5);
+    BOOST_REQUIRE(f.has_value());
+    BOOST_TEST(*f == 2.0);  // 4 persons in 2 s
+    BOOST_TEST(!ch::evacuationFlow(e, 1, 6).has_value());  // fewer evacuees than asked
+    std::vector<ch::Evacuation> same = {{0, 3.0}, {1, 3.0}};
+    BOOST_TEST(!ch::evacuationFlow(same, 1, 2).has_value());  // no time elapsed
+}
+
+namespace {
+/// An AgentStore with n agents on a line 0.5 m apart and the given velocities.
+ch::AgentStore line(const std::vector<ch::Vec2>& velocities) {
+    ch::AgentStore a;
+    for (std::size_t i = 0; i < velocities.size(); ++i) {
+        a.id.push_back(static_cast<ch::AgentId>(i));
+        a.pos.emplace_back(0.5 * static_cast<double>(i), 0.0);
+        a.vel.push_back(velocities[i]);
+    }
+    return a;
+}
+}  // namespace
+
+BOOST_AUTO_TEST_CASE(crowd_pressure_is_zero_for_a_uniform_flow_and_grows_with_velocity_spread) {
+    const ch::World world;  // infinite, no obstacles
+    const std::vector<double> density(4, 2.0);
+    const auto uniform = ch::crowdPressure(line({{1, 0}, {1, 0}, {1, 0}, {1, 0}}), density, world);
+    for (const double p : uniform) BOOST_TEST(std::abs(p) < 1e-12);
+
+    const auto mixed = ch::crowdPressure(line({{1, 0}, {-1, 0}, {1, 0}, {-1, 0}}), density, world);
+    const auto mixedTwice = ch::crowdPressure(line({{2, 0}, {-2, 0}, {2, 0}, {-2, 0}}), density, world);
+    for (std::size_t i = 0; i < mixed.size(); ++i) {
+        BOOST_TEST(mixed[i] > 0.1);
+        BOOST_TEST(mixed[i] <= 2.0 * 1.0 + 1e-12);  // ρ · Var ≤ ρ · max |v − v̄|² = 2 · 1 (means near 0)
+        // Variance scales with the square of the velocities.
+        BOOST_TEST(std::abs(mixedTwice[i] - 4.0 * mixed[i]) < 1e-9 * mixedTwice[i]);
+    }
+    // Agents farther apart than h = 1 m do not see each other: each alone has no spread.
+    ch::AgentStore far = line({{1, 0}, {-1, 0}});
+    far.pos[1] = ch::Vec2(5, 0);
+    for (const double p : ch::crowdPressure(far, {2.0, 2.0}, world)) BOOST_TEST(std::abs(p) < 1e-12);
+}
