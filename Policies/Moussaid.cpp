@@ -1,0 +1,88 @@
+// CrowdHealth — Moussaid (Moussaïd, Helbing & Theraulaz 2011), see Moussaid.h.
+#include "Moussaid.h"
+
+#include "crowdhealth/geometry.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace ch {
+
+CH_REGISTER_COMPONENT(Moussaid);
+
+ComponentInfo Moussaid::Info() {
+    ComponentInfo info;
+    info.name = "Moussaid";
+    info.kind = ComponentKind::CostFunction;
+    info.summary = "vision-based heuristics: direction closest to the goal within the free distance, speed from it";
+    info.reference =
+        "Moussaid, Helbing & Theraulaz 2011, How simple rules determine pedestrian behavior and crowd disasters, "
+        "PNAS 108(17):6884-6888";
+    ParamSpec dMax = ParamSpec::real("d_max", "m", 8.0, 0.0, 1e3,
+                                     "horizon distance: free distances are capped at it (paper: 10 m)");
+    dMax.minExclusive = true;
+    info.params = {dMax};
+    info.create = [](const ParamSet& p) { return std::make_unique<Moussaid>(p); };
+    return info;
+}
+
+Moussaid::Moussaid(const ParamSet& params) {
+    bind(params, "range", range_);
+    bind(params, "d_max", dMax_);
+}
+
+double Moussaid::distanceToCollision(const Vec2& dir, double speed, const AgentQuery& q,
+                                     const StepContext& ctx) const {
+    const AgentStore& A = ctx.agents;
+    const Vec2 v = dir * speed;
+    double first = kInf;  // time to the first collision
+    for (const NeighbourAgent& n : q.agents) {
+        if (n.distance > range_) continue;
+        const Vec2& vj = A.vel[n.index];
+        const double rj = A.radius[n.index];
+        double t;
+        if (n.distance <= q.radius + rj)  // overlapping now: blocks only the directions closing the gap
+            t = (v - vj).dot(n.offset) > 0 ? 0.0 : kInf;
+        else
+            t = timeToCollision(Vec2(0, 0), v, q.radius, n.offset, vj, rj);
+        first = std::min(first, t);
+    }
+    for (int s : q.segments) {
+        const Segment& seg = ctx.world.segments()[s];
+        const Vec2 toWall = closestPointOnSegment(q.position, seg.a, seg.b) - q.position;
+        const double d = toWall.norm();
+        if (d > range_) continue;
+        double t;
+        if (d <= q.radius)
+            t = v.dot(toWall) > 0 ? 0.0 : kInf;
+        else
+            t = timeToCollisionSegment(q.position, v, q.radius, seg.a, seg.b);
+        first = std::min(first, t);
+    }
+    if (!(first < kInf)) return dMax_;
+    return std::min(dMax_, first * speed);
+}
+
+double Moussaid::cost(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const {
+    const double v0 = q.prefSpeed;
+    const double prefNorm = q.prefVelocity.norm();
+    const double speed = v.norm();
+    // At the goal (or no wish to walk): prefer standing still.
+    if (prefNorm <= 1e-12 || v0 <= 0) return speed * speed;
+
+    const Vec2 goalDir = q.prefVelocity / prefNorm;
+    const Vec2 dir = speed > 1e-12 ? Vec2(v / speed) : goalDir;
+    const double f = distanceToCollision(dir, v0, q, ctx);
+
+    // Heuristic 1: squared distance between the reachable point and the goal-ward horizon point.
+    const double cosDev = std::clamp(dir.dot(goalDir), -1.0, 1.0);
+    const double d2 = std::max(0.0, dMax_ * dMax_ + f * f - 2.0 * dMax_ * f * cosDev);
+
+    // Heuristic 2: the speed that allows stopping within the free distance in time τ.
+    const double tau = std::max(ctx.relaxationTime, ctx.dt);
+    const double vDes = std::min(v0, f / tau);
+    const double rel = (vDes - speed) / std::max(vDes, 1e-3);
+    return (1.0 + d2) * (1.0 + rel * rel);
+}
+
+}  // namespace ch
