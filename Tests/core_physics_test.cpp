@@ -165,3 +165,17 @@ BOOST_AUTO_TEST_CASE(measured_density_of_a_lone_agent_is_m_times_4_over_pi) {
     sim.measureDensity(1.0);
     BOOST_TEST(std::abs(sim.agents().density[0] - 1.3 * 4.0 / kPi) < 1e-12);
 }
+
+BOOST_AUTO_TEST_CASE(wall_penetration_is_measured_from_the_shortest_way_out) {
+    // A 2 m × 1 m wall; agents of radius 0.25 m at known depths.
+    auto spec = test::scenario({test::agent(1, {0.5, -0.1}, {0.5, -5}, 0.25),    // outside, 0.1 m from the face
+                                test::agent(2, {1.0, 0.2}, {1.0, 5}, 0.25),      // inside, 0.2 m from the face
+                                test::agent(3, {5.0, 5.0}, {6, 6}, 0.25)},       // far away
+                               {socialForcesPolicy()}, 0.1, 1);
+    ObstacleSpec wall;
+    wall.points = {{0, 0}, {2, 0}, {2, 1}, {0, 1}};
+    spec.obstacles.push_back(wall);
+    Simulation sim(spec);
+    // Agent 2: centre 0.2 m inside (nearest edge y = 0) → 0.25 + 0.2; agent 1 would give 0.15.
+    BOOST_TEST(std::abs(sim.maxWallPenetration() - 0.45) < 1e-12);
+}
