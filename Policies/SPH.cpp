@@ -32,6 +32,13 @@ ComponentInfo SPH::Info() {
         ParamSpec::choice("walls", {"particles", "analytic"}, 1,
                           "wall density from static boundary particles (<Box particles=\"true\">) or from the area of "
                           "the kernel disc behind each wall segment, with occlusion"),
+        ParamSpec::boolean("wallViscosity", true,
+                           "walls=particles: boundary particles take part in the viscosity sum as fluid at rest (v = 0), "
+                           "i.e. friction along walls and door jambs"),
+        ParamSpec::choice("wallPressure", {"fixed", "dynamic", "mirrored", "densityOnly"}, 0,
+                          "walls=particles, boundary particles in the pressure sum: own density against their rest "
+                          "state without agents (fixed), own density against the agents' dynamic rest density (dynamic), "
+                          "the agent's pressure and density (mirrored), or not at all (densityOnly)"),
     };
     info.create = [](const ParamSet& p) { return std::make_unique<SPH>(p); };
     return info;
@@ -45,6 +52,8 @@ SPH::SPH(const ParamSet& params) {
     bind(params, "densityAdaptationTime", adaptationTime_);
     bind(params, "viscosity", viscosity_);
     bind(params, "walls", walls_);
+    bind(params, "wallViscosity", wallViscosity_);
+    bind(params, "wallPressure", wallPressureRule_);
 }
 
 double SPH::smoothingLength() const { return std::min(range_, kMaxSmoothingLength); }
@@ -118,24 +127,33 @@ void SPH::prepare(const StepContext& ctx) {
     }
 
     if (!useParticles) return;
-    // Boundary particles: density from agents and particles (itself included), same rest-density
-    // rule; they take part in the agents' pressure sums but never move.
+    // Boundary particles: density from agents and particles (itself included). They never move;
+    // their pressure p_k = k (ρ_k − ρ0_k) with ρ0_k either their density without agents (fixed:
+    // a wall does not adapt to being pressed) or the agents' moving-average rule (dynamic).
     const std::size_t np = particles.size();
     wallDensity_.resize(np, 0.0);
     wallPressure_.resize(np, 0.0);
     wallAverage_.resize(np, 0.0);
     wallKnown_.resize(np, 0);
+    const WallPressure rule = wallPressureRule();
 #pragma omp parallel for schedule(static)
     for (std::ptrdiff_t kk = 0; kk < static_cast<std::ptrdiff_t>(np); ++kk) {
         const std::size_t k = static_cast<std::size_t>(kk);
         const Vec2& x = particles[k];
-        double rho = 0;
+        double walls = 0;
+        particleGrid.forEachWithin(x, h, [&](int, const Vec2&, double d2) { walls += kernels::poly6(d2, h); });
+        double rho = walls;
         ctx.grid.forEachWithin(x, h, [&](int j, const Vec2&, double d2) { rho += A.mass[j] * kernels::poly6(d2, h); });
-        particleGrid.forEachWithin(x, h, [&](int, const Vec2&, double d2) { rho += kernels::poly6(d2, h); });
-        wallAverage_[k] = wallKnown_[k] ? (1.0 - w) * wallAverage_[k] + w * rho : rho;
+        double rest;
+        if (rule == WallPressure::Fixed) {
+            rest = walls;  // the wall's own rest state (not clamped: it is not a pedestrian's choice)
+        } else {
+            wallAverage_[k] = wallKnown_[k] ? (1.0 - w) * wallAverage_[k] + w * rho : rho;
+            rest = clampRest(wallAverage_[k]);
+        }
         wallKnown_[k] = 1;
         wallDensity_[k] = rho;
-        wallPressure_[k] = gasConstant_ * (rho - clampRest(wallAverage_[k]));
+        wallPressure_[k] = gasConstant_ * (rho - rest);
     }
 }
 
@@ -161,14 +179,24 @@ Vec2 SPH::acceleration(const AgentQuery& q, const StepContext& ctx) const {
             a += viscosity_ * A.mass[j] / rhoJ * kernels::viscosityLaplacian(nb.distance, h) * (A.vel[j] - q.velocity);
     }
 
-    if (pressure && !analyticWalls() && !wallDensity_.empty()) {
-        ctx.world.particleGrid().forEachWithin(q.position, h, [&](int k, const Vec2& d, double d2) {
-            const double r = std::sqrt(d2);
-            const double rhoK = wallDensity_[static_cast<std::size_t>(k)];
-            if (r < 1e-12 || !(rhoK > 0)) return;
-            a += (pI + wallPressure_[static_cast<std::size_t>(k)]) / (2.0 * rhoK) * kernels::spikyGradMagnitude(r, h) *
-                 Vec2(-d / r);
-        });
+    if (!analyticWalls() && !wallDensity_.empty()) {
+        const WallPressure rule = wallPressureRule();
+        const bool wallPush = pressure && rule != WallPressure::DensityOnly;
+        const bool wallVisc = viscosity_ > 0 && wallViscosity_ != 0.0;
+        if (wallPush || wallVisc)
+            ctx.world.particleGrid().forEachWithin(q.position, h, [&](int kk, const Vec2& d, double d2) {
+                const std::size_t k = static_cast<std::size_t>(kk);
+                const double r = std::sqrt(d2);
+                // mass 1; mirrored: the particle takes the agent's pressure and density.
+                const double rhoK = rule == WallPressure::Mirrored ? rhoI : wallDensity_[k];
+                if (r < 1e-12 || !(rhoK > 0)) return;
+                if (wallPush) {
+                    const double pK = rule == WallPressure::Mirrored ? pI : wallPressure_[k];
+                    a += (pI + pK) / (2.0 * rhoK) * kernels::spikyGradMagnitude(r, h) * Vec2(-d / r);
+                }
+                // A boundary particle is fluid at rest: v_k = 0.
+                if (wallVisc) a -= viscosity_ / rhoK * kernels::viscosityLaplacian(r, h) * q.velocity;
+            });
     } else if (pressure && analyticWalls()) {
         std::vector<int> near;
         std::vector<wallarea::WallPiece> pieces;

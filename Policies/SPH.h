@@ -21,12 +21,15 @@ namespace ch {
 ///     at the agent's rest density at the point halfway between the segment's nearest point and
 ///     the kernel edge, r_s = (d_s + h)/2:  ρ_i += V_s ρ0_i W(r_s) (ρ0_i of the previous step);
 ///   * particles — the World's static boundary particles (mass 1) count in ρ_i. They never move:
-///     only their density (and from it their own rest density and pressure) is computed.
+///     only their density ρ_k is computed; their pressure p_k = k (ρ_k − ρ0_k) with ρ0_k their
+///     density without agents (`wallPressure` fixed, default) or the agents' moving-average rule
+///     (dynamic); mirrored uses p_k = p_i, ρ_k = ρ_i; densityOnly leaves them out of the pressure
+///     sum. With `wallViscosity` (default) they are in the viscosity sum with v_k = 0.
 /// Acceleration on agent i, only while p_i > 0 for the pressure term ("absolute pressure"):
 ///   a_i = (1/ρ_i) [ Σ_j m_j (p_i + p_j)/(2ρ_j) S(r_ij) x̂_ji  +  μ Σ_j m_j/ρ_j (v_j − v_i) L(r_ij) ]
 ///   with S the spiky gradient magnitude, L the viscosity Laplacian, x̂_ji the unit vector from j
 ///   to i; analytic walls add V_s p_i S(r_s) (away from the nearest point) to the pressure sum
-///   (wall pressure = p_i, wall density = ρ0_i). Walls get no viscosity (agents would stick).
+///   (wall pressure = p_i, wall density = ρ0_i). Analytic walls get no viscosity (van Toll).
 class SPH : public ForceComponent {
 public:
     /// "Limited smoothing length": h = min(range, this) (m). Also the default, since the common
@@ -45,6 +48,17 @@ public:
     double smoothingLength() const;
     bool analyticWalls() const { return walls_ != 0.0; }
 
+    /// How boundary particles (walls = particles) enter the agents' pressure sum.
+    enum class WallPressure {
+        Fixed,       ///< own density ρ_k, rest density = ρ_k without agents (the wall's rest state)
+        Dynamic,     ///< own density ρ_k, rest density by the agents' moving-average rule
+        Mirrored,    ///< the agent's own pressure and density (p_k = p_i, ρ_k = ρ_i)
+        DensityOnly  ///< density only: no pressure term from walls
+    };
+    /// Pressure of each boundary particle (index = World::boundaryParticles()), walls = particles.
+    const std::vector<double>& boundaryPressure() const { return wallPressure_; }
+    WallPressure wallPressureRule() const { return static_cast<WallPressure>(static_cast<int>(wallPressureRule_)); }
+
 private:
     double gasConstant_ = 200;        ///< k, m²/s²
     double restDensityMin_ = 0;       ///< ρ0_min, 1/m²
@@ -52,6 +66,8 @@ private:
     double adaptationTime_ = 0.1;     ///< T_ρ, s
     double viscosity_ = 0;            ///< μ, 1/s
     double walls_ = 1;                ///< Choice: 0 = particles, 1 = analytic
+    double wallViscosity_ = 1;        ///< Bool (particles): boundary particles in the viscosity sum
+    double wallPressureRule_ = 0;     ///< Choice (particles), see WallPressure
 
     // per agent (index = AgentStore index), filled by prepare()
     std::vector<double> density_, restDensity_, pressure_;

@@ -291,6 +291,71 @@ BOOST_AUTO_TEST_CASE(analytic_wall_raises_density_and_pushes_away) {
     BOOST_TEST(std::abs(a.x()) < 1e-9);
 }
 
+// ---- boundary particles (walls = particles) ---------------------------------------------------
+
+namespace {
+/// A 6 m long, 1 m thick wall with its near face at y = 0.3, packed like <Box particles="true">
+/// (rows 0.26 m and 0.74 m inside, every 0.48 m).
+ObstacleSpec particleWall() {
+    ObstacleSpec b = box(-3, 0.3, 6, 1);
+    for (double y : {0.56, 1.04})
+        for (int k = 0; k < 12; ++k) b.particles.emplace_back(-2.76 + 0.48 * k, y);
+    return b;
+}
+}  // namespace
+
+BOOST_AUTO_TEST_CASE(particle_walls_keep_their_rest_state) {
+    // fixed (default): a boundary particle's rest density is its density without agents, so it
+    // has no pressure until an agent comes within h, then a positive one; with the agents'
+    // dynamic rule its rest density starts at its current density (p_k = 0 at the first step).
+    Frozen far({still(1, Vec2(-0.12, -0.8))}, {particleWall()});  // 1.1 m from the face
+    Frozen near({still(1, Vec2(-0.12, 0))}, {particleWall()});    // midway between two columns
+    BOOST_TEST_REQUIRE(near.world.boundaryParticles().size() == 24u);
+    auto fixed = makeSPH({{"range", 1}, {"walls", 0}});
+    fixed->prepare(far.ctx());
+    for (double p : fixed->boundaryPressure()) BOOST_TEST(p == 0.0, boost::test_tools::tolerance(1e-9));
+    fixed->prepare(near.ctx());
+    double most = 0;
+    for (double p : fixed->boundaryPressure()) {
+        BOOST_TEST(p >= -1e-9);
+        most = std::max(most, p);
+    }
+    BOOST_TEST(most > 10.0);
+    auto dynamic = makeSPH({{"range", 1}, {"walls", 0}, {"wallPressure", 1}});
+    dynamic->prepare(near.ctx());
+    for (double p : dynamic->boundaryPressure()) BOOST_TEST(p == 0.0, boost::test_tools::tolerance(1e-9));
+
+    // A compressed agent (ρ0 forced to 0) is pushed straight away from the wall by every rule but
+    // densityOnly, where the wall counts in its density only.
+    for (int rule = 0; rule < 4; ++rule) {
+        auto c = makeSPH({{"range", 1}, {"walls", 0}, {"restDensityMin", 0}, {"restDensityMax", 0}, {"wallPressure", rule}});
+        c->prepare(near.ctx());
+        const Vec2 a = c->acceleration(near.query(0), near.ctx());
+        BOOST_TEST((*c->field("density"))[0] > 4.0 / kPi + 0.5);
+        BOOST_TEST(std::abs(a.x()) < 1e-9);
+        if (rule == 3) BOOST_TEST(a.norm() < 1e-12);
+        else BOOST_TEST(a.y() < -1.0);
+    }
+}
+
+BOOST_AUTO_TEST_CASE(particle_walls_take_part_in_the_viscosity) {
+    // An agent sliding along a particle wall (no pressure: rest density above its density) is
+    // slowed by the wall at rest when wallViscosity is on (default), untouched when off.
+    Frozen f({still(1, Vec2(-0.12, 0))}, {particleWall()});
+    f.agents.vel[0] = Vec2(1, 0);
+    auto on = makeSPH({{"range", 1}, {"walls", 0}, {"restDensityMin", 10}, {"restDensityMax", 10}, {"viscosity", 3}});
+    auto off = makeSPH({{"range", 1}, {"walls", 0}, {"restDensityMin", 10}, {"restDensityMax", 10}, {"viscosity", 3},
+                        {"wallViscosity", 0}});
+    on->prepare(f.ctx());
+    off->prepare(f.ctx());
+    AgentQuery q = f.query(0);
+    q.velocity = f.agents.vel[0];
+    const Vec2 a = on->acceleration(q, f.ctx());
+    BOOST_TEST(a.x() < -0.1);
+    BOOST_TEST(std::abs(a.y()) < 1e-9);
+    BOOST_TEST(off->acceleration(q, f.ctx()).norm() < 1e-12);
+}
+
 // ---- contact ---------------------------------------------------------------------------------
 
 BOOST_AUTO_TEST_CASE(contact_forces_are_equal_and_opposite) {
