@@ -40,8 +40,17 @@ po::options_description visibleOptions() {
         ("output,o", po::value<std::string>()->value_name("OUTDIR"),
          "folder for the outputs (created if missing)")
         ("threads,t", po::value<std::string>()->value_name("N"),
-         "OpenMP threads (default: one per hardware thread; results do not depend on it)")
-        ("seed", po::value<std::string>()->value_name("N"), "random seed, overrides Simulation@seed")
+         "OpenMP threads (default: one per hardware thread; results do not depend on it); "
+         "with --replications: runs at a time, each on one thread")
+        ("seed", po::value<std::string>()->value_name("N"),
+         "random seed, overrides Simulation@seed (with --replications: the first run's seed)")
+        ("replications", po::value<std::string>()->value_name("N"),
+         "run N times with seeds S, S+1, ..., S+N-1 (S: --seed, else the scenario's) into "
+         "OUTDIR/run_000 ... and write OUTDIR/summary.csv (one row per run, then mean, sd and n)")
+        ("flow-first", po::value<std::string>()->value_name("N"),
+         "flow is measured from the Nth evacuee (overrides <Output flow_first>, default 1)")
+        ("flow-last", po::value<std::string>()->value_name("N"),
+         "... to the Nth evacuee (overrides <Output flow_last>, default 350)")
         ("end-time", po::value<std::string>()->value_name("T"),
          "simulated time to stop at (s), overrides Simulation@end_time")
         ("trajectories", po::value<std::string>()->value_name("umans|txt|both|none"),
@@ -75,14 +84,22 @@ void printVersion(std::ostream& out) { out << "crowdhealth " << CH_VERSION << "\
 
 void printHelp(std::ostream& out) {
     out << "Usage: crowdhealth -i SCENARIO -o OUTDIR [options]\n"
+           "       crowdhealth -i SCENARIO -o OUTDIR --replications N [-t THREADS] [--seed S]\n"
            "       crowdhealth -i SCENARIO --check\n"
            "       crowdhealth --list-policies [--format text|markdown]\n\n"
            "Runs a CrowdHealth (UMANS-compatible) crowd scenario and writes metrics.csv,\n"
-           "evacuations.csv, summary.json and optionally trajectories to OUTDIR.\n\n";
+           "evacuations.csv, summary.json and optionally trajectories to OUTDIR.\n"
+           "With --replications N, runs the seeds S ... S+N-1 (S: --seed, else the scenario's),\n"
+           "at most THREADS at a time and each on one thread, into OUTDIR/run_000, run_001, ...\n"
+           "Each folder holds the files of a single run, identical to a run with --seed S+k.\n"
+           "OUTDIR/summary.csv has one row per run (seed, evacuated, evacuation time, flow,\n"
+           "peaks, mean density at t = 15 s, interrupted), then the rows 'mean', 'sd' (sample,\n"
+           "N-1) and 'n' (the runs each uses: those not interrupted, with a value there).\n\n";
     out << visibleOptions() << "\n";
     out << "Exit status:\n"
            "  0    success\n"
-           "  1    runtime failure (e.g. OUTDIR cannot be written)\n"
+           "  1    runtime failure (e.g. OUTDIR cannot be written; with --replications, a run\n"
+           "       failed)\n"
            "  2    bad command line or scenario errors (printed as path:line: error: ...);\n"
            "       nothing is simulated or written\n"
            "  130  interrupted by Ctrl-C (SIGINT) or SIGTERM; outputs cover the time simulated\n";
@@ -165,6 +182,34 @@ std::optional<Options> parseCommandLine(int argc, const char* const argv[], std:
             return std::nullopt;
         }
         o.trajectories = t;
+    }
+    if (vm.count("replications")) {
+        std::uint64_t n = 0;
+        if (!parseUnsigned(str("replications"), n) || n < 1 || n > kMaxReplications) {
+            usageError(err, "--replications must be a whole number from 1 to " + std::to_string(kMaxReplications) +
+                                ", not '" + str("replications") + "'");
+            return std::nullopt;
+        }
+        if (o.command == Command::Check) {
+            usageError(err, "--replications cannot be combined with --check (check the scenario once, without it)");
+            return std::nullopt;
+        }
+        o.replications = n;
+    }
+    for (const char* name : {"flow-first", "flow-last"}) {
+        if (!vm.count(name)) continue;
+        std::uint64_t n = 0;
+        if (!parseUnsigned(str(name), n) || n < 1 || n > 1000000000) {
+            usageError(err, std::string("--") + name + " must be a whole number from 1 to 1000000000, not '" +
+                                str(name) + "'");
+            return std::nullopt;
+        }
+        (std::string(name) == "flow-first" ? o.flowFirst : o.flowLast) = static_cast<int>(n);
+    }
+    if (o.flowFirst && o.flowLast && *o.flowLast <= *o.flowFirst) {
+        usageError(err, "--flow-last (" + std::to_string(*o.flowLast) + ") must be greater than --flow-first (" +
+                            std::to_string(*o.flowFirst) + ")");
+        return std::nullopt;
     }
     if (vm.count("debug-interrupt-after")) {
         std::uint64_t n = 0;

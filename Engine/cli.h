@@ -8,6 +8,9 @@
 
 namespace chcli {
 
+/// Largest --replications accepted (run folders are numbered with at least three digits).
+inline constexpr std::uint64_t kMaxReplications = 100000;
+
 enum class Command { Run, Check, ListPolicies, Help, Version };
 enum class ListFormat { Text, Markdown };
 
@@ -15,10 +18,16 @@ struct Options {
     Command command = Command::Run;
     std::string input;               ///< -i: scenario XML
     std::string output;              ///< -o: output folder
-    int threads = 0;                 ///< -t: OpenMP threads; 0 = one per hardware thread
+    /// -t: OpenMP threads of the run; with --replications, the number of runs at a time (each
+    /// on one thread). 0 = one per hardware thread.
+    int threads = 0;
     std::optional<std::uint64_t> seed;     ///< --seed: overrides Simulation@seed
     std::optional<double> endTime;         ///< --end-time (s): overrides Simulation@end_time
     std::optional<std::string> trajectories;  ///< umans|txt|both|none; default from <Output>
+    /// --replications N: run seeds S … S+N−1 into OUTDIR/run_000 … and write OUTDIR/summary.csv.
+    std::optional<std::uint64_t> replications;
+    std::optional<int> flowFirst;  ///< --flow-first: overrides <Output flow_first>
+    std::optional<int> flowLast;   ///< --flow-last: overrides <Output flow_last>
     bool quiet = false;
     ListFormat format = ListFormat::Text;
     /// Hidden, for tests: raise SIGINT after this many coarse steps (exercises the real

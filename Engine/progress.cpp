@@ -74,4 +74,37 @@ void ProgressBar::draw(const ch::Simulation& sim) {
     drawn_ = true;
 }
 
+ReplicationProgress::ReplicationProgress(std::ostream& out, bool enabled, std::size_t total, double endTime)
+    : out_(out), enabled_(enabled), total_(total), endTime_(endTime), start_(std::chrono::steady_clock::now()) {}
+
+void ReplicationProgress::draw(std::size_t done, std::size_t running, double slowest) {
+    if (!enabled_) return;
+    const double fraction = total_ > 0 ? static_cast<double>(done) / static_cast<double>(total_) : 1.0;
+    const int filled = static_cast<int>(std::clamp(fraction, 0.0, 1.0) * kBarWidth);
+    std::string bar(static_cast<std::size_t>(filled), '#');
+    bar.resize(kBarWidth, '.');
+    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+    char slow[96] = "";
+    if (running > 0) {
+        if (endTime_ > 0) std::snprintf(slow, sizeof slow, "  slowest t = %.1f / %.0f s", slowest, endTime_);
+        else std::snprintf(slow, sizeof slow, "  slowest t = %.1f s", slowest);
+    }
+    char line[256];
+    std::snprintf(line, sizeof line, "\r[%s] runs %zu/%zu done  %zu running%s  elapsed %s", bar.c_str(), done,
+                  total_, running, slow, formatDuration(elapsed).c_str());
+    out_ << line << "\x1b[K" << std::flush;
+    drawn_ = true;
+}
+
+void ReplicationProgress::clear() {
+    if (!enabled_ || !drawn_) return;
+    out_ << "\r\x1b[K" << std::flush;
+}
+
+void ReplicationProgress::finish() {
+    if (!enabled_ || !drawn_) return;
+    out_ << '\n' << std::flush;
+    drawn_ = false;
+}
+
 }  // namespace chcli

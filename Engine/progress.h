@@ -35,6 +35,31 @@ private:
     bool drawn_ = false;
 };
 
+/// The one-line progress of a set of replications on stderr: runs done/total, runs going, the
+/// simulated time of the slowest run going, elapsed wall time. The caller decides when to redraw.
+class ReplicationProgress {
+public:
+    /// `enabled` false makes every call a no-op. `endTime` (s) is the time a run stops at at the
+    /// latest (< 0: unknown); it is only shown.
+    ReplicationProgress(std::ostream& out, bool enabled, std::size_t total, double endTime);
+
+    /// Redraws the line. `slowest` (s) is the smallest simulated time among the runs going
+    /// (ignored when `running` is 0).
+    void draw(std::size_t done, std::size_t running, double slowest);
+    /// Erases the line, so that a message can be printed; the next draw() brings it back.
+    void clear();
+    /// Ends the line (after a last draw()).
+    void finish();
+
+private:
+    std::ostream& out_;
+    bool enabled_;
+    std::size_t total_;
+    double endTime_;
+    std::chrono::steady_clock::time_point start_;
+    bool drawn_ = false;
+};
+
 /// "1:05" / "1:02:03" for a number of seconds.
 std::string formatDuration(double seconds);
 

@@ -13,8 +13,15 @@ inline constexpr double kSafetyCapSeconds = 3600.0;
 /// stdout and returns 0, or prints every error on stderr and returns 2. Writes nothing.
 int checkScenario(const Options& options);
 
-/// Loads, builds and runs the scenario, writing the outputs to options.output.
-/// Returns 0, 1 (runtime failure), 2 (bad input; nothing written) or 130 (interrupted).
+/// Loads, builds and runs the scenario, writing the outputs to options.output (with
+/// --replications: runReplications). Returns 0, 1 (runtime failure), 2 (bad input; nothing
+/// written) or 130 (interrupted).
 int runScenario(const Options& options);
+
+/// --replications N: loads the scenario once per seed S … S+N−1 (every load checked before
+/// anything is written), runs them at most options.threads at a time (each on one OpenMP thread)
+/// into OUTDIR/run_000 …, writes OUTDIR/summary.csv and prints its table. Same exit statuses as
+/// runScenario; 1 if any run failed.
+int runReplications(const Options& options);
 
 }  // namespace chcli

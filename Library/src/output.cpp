@@ -470,4 +470,88 @@ std::string summaryJson(const Simulation& sim, const RunInfo& info, const Metric
     return j;
 }
 
+std::optional<double> runEvacuationTime(const Simulation& sim) {
+    const auto& evac = sim.evacuations();
+    if (sim.agents().size() + sim.pending() == 0 && !evac.empty()) return evac.back().time;
+    return std::nullopt;
+}
+
+std::optional<double> runFlow(const Simulation& sim) {
+    const OutputSpec& out = sim.spec().output;
+    const int last = static_cast<int>(
+        std::min<std::size_t>(static_cast<std::size_t>(std::max(out.flowLast, 0)), sim.totalAgents()));
+    return evacuationFlow(sim.evacuations(), out.flowFirst, last);
+}
+
+// ---- replications (summary.csv) -------------------------------------------------------------
+
+std::array<std::optional<double>, kReplicationStatColumns.size()> ReplicationRow::statValues() const {
+    return {static_cast<double>(evacuated), evacuationTime, flow, peakMeanDensity, meanDensityAt15s,
+            peakMaxContactAccel, peakWallPenetration};
+}
+
+SampleStats sampleStats(const std::vector<std::optional<double>>& values) {
+    // Deviations from the first value, then two passes over them: no cancellation when the runs
+    // are close together, and equal values give exactly that value as mean and exactly 0 as sd.
+    SampleStats s;
+    std::optional<double> shift;
+    double sum = 0;
+    for (const auto& v : values) {
+        if (!v || !std::isfinite(*v)) continue;
+        if (!shift) shift = *v;
+        sum += *v - *shift;
+        ++s.count;
+    }
+    if (s.count == 0) return s;
+    const double meanDeviation = sum / static_cast<double>(s.count);
+    s.mean = *shift + meanDeviation;
+    if (s.count < 2) return s;
+    double squares = 0;
+    for (const auto& v : values)
+        if (v && std::isfinite(*v)) squares += (*v - *shift - meanDeviation) * (*v - *shift - meanDeviation);
+    s.sd = std::sqrt(squares / static_cast<double>(s.count - 1));
+    return s;
+}
+
+std::array<SampleStats, kReplicationStatColumns.size()> replicationStats(const std::vector<ReplicationRow>& rows) {
+    std::array<SampleStats, kReplicationStatColumns.size()> stats;
+    for (std::size_t c = 0; c < kReplicationStatColumns.size(); ++c) {
+        std::vector<std::optional<double>> column;
+        for (const ReplicationRow& r : rows)
+            if (!r.interrupted) column.push_back(r.statValues()[c]);
+        stats[c] = sampleStats(column);
+    }
+    return stats;
+}
+
+std::string replicationsCsv(const std::vector<ReplicationRow>& rows) {
+    auto cell = [](std::string& out, const std::optional<double>& v) {
+        out += ',';
+        if (v && !std::isnan(*v)) appendNumber(out, *v, 10);
+    };
+    std::string out = kReplicationsHeader;
+    out += '\n';
+    for (const ReplicationRow& r : rows) {
+        out += r.run;
+        out += ',';
+        out += std::to_string(r.seed);
+        out += ',';
+        out += std::to_string(r.evacuated);
+        for (const auto& v : {r.evacuationTime, r.flow, std::optional<double>(r.peakMeanDensity), r.meanDensityAt15s,
+                              std::optional<double>(r.peakMaxContactAccel),
+                              std::optional<double>(r.peakWallPenetration)})
+            cell(out, v);
+        out += r.interrupted ? ",true\n" : ",false\n";
+    }
+    const auto stats = replicationStats(rows);
+    out += "mean,";
+    for (const SampleStats& s : stats) cell(out, s.mean);
+    out += ",\nsd,";
+    for (const SampleStats& s : stats) cell(out, s.sd);
+    out += ",\nn,";
+    for (const SampleStats& s : stats) { out += ','; out += std::to_string(s.count); }
+    out += ",\n";
+    return out;
+}
+
 }  // namespace ch

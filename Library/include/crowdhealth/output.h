@@ -21,9 +21,11 @@
 
 #include "crowdhealth/simulation.h"
 
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -229,5 +231,64 @@ std::optional<double> evacuationFlow(const std::vector<Evacuation>& evacuations,
 /// summary.json: scenario, seed, time steps, end/simulated time, interrupted, agent counts,
 /// evacuation time, flow {first, last, persons_per_second}, peaks, wall time.
 std::string summaryJson(const Simulation& sim, const RunInfo& info, const MetricsPeaks& peaks);
+
+/// The evacuation time of summary.json: when the last agent was removed at its goal, once nobody
+/// is left (nullopt while agents remain or when nobody was evacuated).
+std::optional<double> runEvacuationTime(const Simulation& sim);
+/// The flow of summary.json: evacuationFlow() from spec().output.flowFirst to
+/// min(flowLast, total agents).
+std::optional<double> runFlow(const Simulation& sim);
+
+// ---- replications (summary.csv) -------------------------------------------------------------
+
+/// The header of a replications summary.csv (no trailing newline).
+inline constexpr const char* kReplicationsHeader =
+    "run,seed,evacuated,evacuation_time,flow,peak_mean_density,mean_density_at_15s,"
+    "peak_max_contact_accel,peak_wall_penetration,interrupted";
+
+/// The columns of a replication row that have a mean and a standard deviation, in file order.
+inline constexpr std::array<const char*, 7> kReplicationStatColumns = {
+    "evacuated", "evacuation_time", "flow", "peak_mean_density", "mean_density_at_15s",
+    "peak_max_contact_accel", "peak_wall_penetration"};
+
+/// One run of a set of replications: one row of summary.csv. An empty optional is an empty cell.
+struct ReplicationRow {
+    std::string run;                         ///< the run's folder name, e.g. "run_003"
+    std::uint64_t seed = 0;
+    std::size_t evacuated = 0;               ///< agents removed at their goal
+    std::optional<double> evacuationTime;    ///< s (runEvacuationTime)
+    std::optional<double> flow;              ///< persons/s (runFlow)
+    double peakMeanDensity = 0;              ///< 1/m², largest mean_density of metrics.csv
+    /// 1/m², mean_density at the first coarse step at or after t = 15 s (the metrics row at
+    /// t = 15 s when the metrics interval lands on it); empty if the run ended earlier.
+    std::optional<double> meanDensityAt15s;
+    double peakMaxContactAccel = 0;          ///< m/s², largest max_contact_accel of metrics.csv
+    double peakWallPenetration = 0;          ///< m, largest max_wall_penetration of metrics.csv
+    bool interrupted = false;                ///< stopped by SIGINT/SIGTERM before its end
+
+    /// The kReplicationStatColumns values of this row, in that order.
+    std::array<std::optional<double>, kReplicationStatColumns.size()> statValues() const;
+};
+
+/// Count, mean and sample standard deviation (divisor count − 1) of some values. mean is NaN when
+/// count is 0, sd is NaN when count < 2.
+struct SampleStats {
+    std::size_t count = 0;
+    double mean = std::numeric_limits<double>::quiet_NaN();
+    double sd = std::numeric_limits<double>::quiet_NaN();
+};
+
+/// Statistics of the values that are present and finite (others are ignored), summed in order.
+SampleStats sampleStats(const std::vector<std::optional<double>>& values);
+
+/// SampleStats per kReplicationStatColumns column over the rows that were not interrupted (an
+/// interrupted run's values cover only part of the run).
+std::array<SampleStats, kReplicationStatColumns.size()> replicationStats(const std::vector<ReplicationRow>& rows);
+
+/// summary.csv of a set of replications: kReplicationsHeader, one line per row (in the given
+/// order), then the lines `mean`, `sd` and `n` (the number of values each statistic uses) with
+/// the seed and interrupted cells empty; a statistic without enough values is an empty cell.
+/// Numbers have 10 significant digits; interrupted is `true` or `false`.
+std::string replicationsCsv(const std::vector<ReplicationRow>& rows);
 
 }  // namespace ch

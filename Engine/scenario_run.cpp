@@ -1,0 +1,196 @@
+// crowdhealth — loading and running one scenario (see scenario_run.h).
+#include "scenario_run.h"
+
+#include "run.h"
+#include "signals.h"
+
+#include <crowdhealth/xml.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <iostream>
+
+namespace chcli {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+bool validTrajectoryChoice(const std::string& t) { return t == "umans" || t == "txt" || t == "both" || t == "none"; }
+
+/// --debug-interrupt-after raises SIGINT once per program, also when several runs go at once.
+std::atomic<bool> g_raisedForTest{false};
+
+}  // namespace
+
+std::string plural(std::size_t n, const char* word) {
+    return std::to_string(n) + " " + word + (n == 1 ? "" : "s");
+}
+
+std::optional<ch::ScenarioSpec> loadSpec(const Options& o, std::optional<std::uint64_t> seed, bool printWarnings) {
+    ch::Diagnostics diags;
+    ch::LoadOptions loadOptions;
+    loadOptions.seed = seed;
+    std::optional<ch::ScenarioSpec> spec;
+    try {
+        spec = ch::loadScenario(o.input, diags, loadOptions);
+    } catch (const std::exception& e) {  // the loader should report, not throw; be safe anyway
+        diags.error(ch::SourceLoc{o.input, 0}, std::string("cannot load the scenario: ") + e.what());
+    }
+    if (printWarnings || diags.hasErrors()) diags.print(std::cerr);  // warnings too, also on success
+    if (!spec || diags.hasErrors()) {
+        if (!diags.hasErrors()) std::cerr << o.input << ": error: the scenario could not be loaded\n";
+        const int n = std::max(1, diags.errorCount());
+        std::cerr << "crowdhealth: " << n << " error" << (n == 1 ? "" : "s") << " in " << o.input;
+        if (seed && o.replications) std::cerr << " with seed " << *seed;
+        std::cerr << "; nothing was simulated or written\n";
+        return std::nullopt;
+    }
+    // --flow-first/--flow-last: one may be given alone, so check the pair the run will use.
+    if (o.flowFirst) spec->output.flowFirst = *o.flowFirst;
+    if (o.flowLast) spec->output.flowLast = *o.flowLast;
+    if ((o.flowFirst || o.flowLast) && spec->output.flowLast <= spec->output.flowFirst) {
+        std::cerr << "crowdhealth: error: the flow would run from evacuee " << spec->output.flowFirst << " to "
+                  << spec->output.flowLast << " (" << (o.flowFirst ? "--flow-first" : "<Output flow_first>")
+                  << " with " << (o.flowLast ? "--flow-last" : "<Output flow_last>")
+                  << "); the last must come after the first\n"
+                     "crowdhealth: nothing was simulated or written\n";
+        return std::nullopt;
+    }
+    return spec;
+}
+
+std::unique_ptr<ch::Simulation> buildSimulation(const ch::ScenarioSpec& spec, const Options& o) {
+    try {
+        // Throws for names the registry does not know (e.g. a policy file from a newer version).
+        return std::make_unique<ch::Simulation>(spec);
+    } catch (const std::exception& e) {
+        std::cerr << o.input << ": error: " << e.what() << "\n"
+                  << "crowdhealth: the scenario cannot be built; nothing was simulated or written\n";
+        return nullptr;
+    }
+}
+
+std::optional<RunPlan> planRun(const Options& o, const ch::ScenarioSpec& spec, bool warn) {
+    RunPlan plan;
+    const std::string trajectories = o.trajectories.value_or(spec.output.trajectories);
+    if (!validTrajectoryChoice(trajectories)) {
+        std::cerr << spec.output.loc.file << ":" << spec.output.loc.line
+                  << ": error: <Output> trajectories must be umans, txt, both or none, not '" << trajectories
+                  << "'\ncrowdhealth: nothing was simulated or written\n";
+        return std::nullopt;
+    }
+    plan.writeUmans = trajectories == "umans" || trajectories == "both";
+    plan.writePedPy = trajectories == "txt" || trajectories == "both";
+
+    // End time: --end-time > the scenario's > the safety cap. The cap is not set as the
+    // simulation's end time, because then finished() would wait for it even once everyone left.
+    plan.info.scenario = o.input;
+    if (o.endTime) {
+        plan.endTimeOverride = *o.endTime;
+        plan.info.endTime = *o.endTime;
+        plan.info.endTimeSource = "command line";
+    } else if (spec.endTime >= 0) {
+        plan.info.endTime = spec.endTime;
+        plan.info.endTimeSource = "scenario";
+    } else {
+        plan.useSafetyCap = true;
+        plan.info.endTime = -1;
+        plan.info.endTimeSource = "none";
+        if (warn)
+            std::cerr << "crowdhealth: warning: " << o.input
+                      << " has no end_time and no --end-time was given: the run ends when every agent has left, or "
+                         "at the safety cap of "
+                      << ch::formatNumber(kSafetyCapSeconds) << " s of simulated time\n";
+    }
+    return plan;
+}
+
+std::optional<std::string> outputFolderProblem(const fs::path& dir) {
+    std::error_code ec;
+    fs::create_directories(dir, ec);
+    if (ec || !fs::is_directory(dir))
+        return "cannot create the output folder '" + dir.string() + "'" +
+               (ec ? ": " + ec.message() : std::string(": a file of that name exists"));
+    try {
+        ch::AtomicFile probe(dir / ".crowdhealth-write-test");  // removed again without commit()
+    } catch (const std::exception& e) {
+        return "the output folder '" + dir.string() + "' is not writable: " + e.what();
+    }
+    return std::nullopt;
+}
+
+RunOutcome simulateAndWrite(ch::Simulation& sim, const RunPlan& plan, const fs::path& outDir, int threads,
+                            const Options& o, const RunHooks& hooks) {
+    RunOutcome result;
+    result.info = plan.info;
+    if (plan.endTimeOverride) sim.setEndTime(*plan.endTimeOverride);
+    sim.setThreads(threads);  // OpenMP's thread count is per calling thread
+    result.info.threads = threads;
+
+    const ch::ScenarioSpec& spec = sim.spec();
+    ch::MetricsRecorder metrics(spec.output.metricsInterval);
+    ch::TrajectoryRecorder trajectory;
+    const bool recordTrajectories = plan.writeUmans || plan.writePedPy;
+
+    // The probe: the first coarse step at or after the time (same tolerance as the metrics).
+    bool probeDone = !hooks.probeMeanDensityAt.has_value();
+    auto probe = [&] {
+        const double t = sim.time();
+        const double due = *hooks.probeMeanDensityAt;
+        if (t + 1e-9 * std::max(1.0, std::abs(t)) < due) return;
+        probeDone = true;
+        const auto& rows = metrics.rows();
+        result.probedMeanDensity =
+            !rows.empty() && rows.back().time == t ? rows.back().meanDensity : ch::measureMetrics(sim).meanDensity;
+    };
+
+    const auto wallStart = std::chrono::steady_clock::now();
+    try {
+        metrics.sample(sim);  // the t = 0 row, before the first step
+        if (recordTrajectories) trajectory.record(sim);
+        if (!probeDone) probe();
+        while (!sim.finished()) {
+            if (plan.useSafetyCap && sim.time() + 1e-9 * kSafetyCapSeconds >= kSafetyCapSeconds) {
+                result.info.stoppedAtSafetyCap = true;
+                break;
+            }
+            sim.stepCoarse();
+            metrics.maybeSample(sim);
+            if (recordTrajectories) trajectory.record(sim);
+            if (!probeDone) probe();
+            if (hooks.afterStep) hooks.afterStep(sim);
+            if (o.interruptAfterSteps && sim.coarseSteps() >= *o.interruptAfterSteps &&
+                !g_raisedForTest.exchange(true))
+                std::raise(SIGINT);
+            if (interruptRequested()) {  // stop after the step that was running, outputs stay valid
+                result.info.interrupted = true;
+                break;
+            }
+        }
+        metrics.finish(sim);  // the row of the final time, if it is not on the interval
+    } catch (const std::exception& e) {
+        if (hooks.afterLoop) hooks.afterLoop(sim);
+        result.error = "the simulation failed at t = " + ch::formatNumber(sim.time()) + " s: " + e.what();
+        return result;
+    }
+    if (hooks.afterLoop) hooks.afterLoop(sim);
+    result.info.wallTimeSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - wallStart).count();
+    result.peaks = metrics.peaks();
+
+    // summary.json last: its presence says that every other file is complete.
+    try {
+        metrics.write(outDir / "metrics.csv");
+        ch::writeFileAtomic(outDir / "evacuations.csv", ch::evacuationsCsv(sim));
+        if (plan.writeUmans) trajectory.writeUmans(outDir);
+        if (plan.writePedPy) trajectory.writePedPy(outDir / "trajectories.txt", sim.deltaTime());
+        ch::writeFileAtomic(outDir / "summary.json", ch::summaryJson(sim, result.info, result.peaks));
+    } catch (const std::exception& e) {
+        result.error = std::string("cannot write the outputs: ") + e.what();
+    }
+    return result;
+}
+
+}  // namespace chcli

@@ -1,0 +1,74 @@
+// crowdhealth — the pieces a single run and a set of replications share: loading the scenario
+// (with the command line's overrides), deciding the end time and trajectory files, and running one
+// simulation into a folder (step loop, Ctrl-C check, atomic outputs, summary.json last).
+#pragma once
+
+#include "cli.h"
+
+#include <crowdhealth/output.h>
+#include <crowdhealth/simulation.h>
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+
+namespace chcli {
+
+/// Loads the scenario of o.input with `seed` (nullopt: Simulation@seed) and applies
+/// --flow-first/--flow-last. Prints every error on stderr (and the warnings too when
+/// `printWarnings`) and returns nullopt when the scenario is not usable; nothing is written.
+std::optional<ch::ScenarioSpec> loadSpec(const Options& o, std::optional<std::uint64_t> seed, bool printWarnings);
+
+/// Builds the simulation of a loaded spec; on failure (e.g. a component the registry does not
+/// know) prints the reason and returns nullptr.
+std::unique_ptr<ch::Simulation> buildSimulation(const ch::ScenarioSpec& spec, const Options& o);
+
+/// How a scenario is run: which trajectory files, and until when.
+struct RunPlan {
+    bool writeUmans = false, writePedPy = false;
+    bool useSafetyCap = false;             ///< no end time at all: stop at kSafetyCapSeconds
+    std::optional<double> endTimeOverride; ///< --end-time
+    ch::RunInfo info;                      ///< scenario, endTime, endTimeSource filled in
+};
+
+/// Decides the plan from the options and the spec. Prints an error and returns nullopt when the
+/// trajectory choice is invalid; prints the "no end time" warning when `warn`.
+std::optional<RunPlan> planRun(const Options& o, const ch::ScenarioSpec& spec, bool warn);
+
+/// Creates `dir` and checks that a file can be created in it. Returns the reason it cannot be
+/// used (a complete message line without a trailing newline), or nullopt when it can.
+std::optional<std::string> outputFolderProblem(const std::filesystem::path& dir);
+
+/// Callbacks and extra measurements of one run.
+struct RunHooks {
+    /// After every coarse step (progress display).
+    std::function<void(const ch::Simulation&)> afterStep;
+    /// Once the loop has ended, before the outputs are written (also when the simulation failed).
+    std::function<void(const ch::Simulation&)> afterLoop;
+    /// Take mean_density at the first coarse step at or after this time (s): the metrics row of
+    /// that step when there is one, else a measurement of its own (which changes nothing).
+    std::optional<double> probeMeanDensityAt;
+};
+
+struct RunOutcome {
+    /// Empty: the run completed (possibly interrupted) and every output is written. Otherwise the
+    /// message (after "crowdhealth: error: ") of the failure; the outputs are then not written.
+    std::string error;
+    ch::RunInfo info;          ///< the plan's info with interrupted, stoppedAtSafetyCap, wall time, threads
+    ch::MetricsPeaks peaks;
+    std::optional<double> probedMeanDensity;  ///< 1/m², see RunHooks::probeMeanDensityAt
+};
+
+/// Runs `sim` on `threads` OpenMP threads (set in the calling thread) until it finishes, the
+/// safety cap, or Ctrl-C, then writes metrics.csv, evacuations.csv, trajectories and summary.json
+/// (last) atomically into `outDir`, which must exist.
+RunOutcome simulateAndWrite(ch::Simulation& sim, const RunPlan& plan, const std::filesystem::path& outDir,
+                            int threads, const Options& o, const RunHooks& hooks);
+
+/// "1 agent" / "3 agents".
+std::string plural(std::size_t n, const char* word);
+
+}  // namespace chcli
