@@ -12,6 +12,31 @@ namespace ch {
 
 CH_REGISTER_COMPONENT(SPH);
 
+namespace {
+
+/// kernels.h with the powers of h and the normalisations computed once per call (per step or per
+/// agent) instead of once per pair. Every expression keeps the order of operations of kernels.h,
+/// so the values are bit-identical.
+struct SphKernels {
+    double h, h2, c6, cS, cV;
+    explicit SphKernels(double hh) : h(hh), h2(hh * hh) {
+        const double h8 = h2 * h2 * h2 * h2;
+        const double h5 = h * h * h * h * h;
+        c6 = 4.0 / (kPi * h8);
+        cS = 30.0 / (kPi * h5);
+        cV = 360.0 / (29.0 * kPi * h5);
+    }
+    double poly6(double r2) const {
+        if (r2 >= h2) return 0.0;
+        const double d = h2 - r2;
+        return c6 * d * d * d;
+    }
+    double spikyGradMagnitude(double r) const { return r >= h ? 0.0 : cS * (h - r) * (h - r); }
+    double viscosityLaplacian(double r) const { return r >= h ? 0.0 : cV * (h - r); }
+};
+
+}  // namespace
+
 ComponentInfo SPH::Info() {
     ComponentInfo info;
     info.name = "SPH";
@@ -89,6 +114,7 @@ void SPH::prepare(const StepContext& ctx) {
     known_.resize(n, 0);
 
     const double h = smoothingLength();
+    const SphKernels K(h);
     const double w = std::min(1.0, ctx.dt / adaptationTime_);
     const bool analytic = analyticWalls();
     const std::vector<Vec2>& particles = ctx.world.boundaryParticles();
@@ -104,9 +130,9 @@ void SPH::prepare(const StepContext& ctx) {
             const std::size_t i = static_cast<std::size_t>(ii);
             const Vec2& x = A.pos[i];
             double rho = 0;  // the agent itself is in the grid (r = 0)
-            ctx.grid.forEachWithin(x, h, [&](int j, const Vec2&, double d2) { rho += A.mass[j] * kernels::poly6(d2, h); });
+            ctx.grid.forEachWithin(x, h, [&](int j, const Vec2&, double d2) { rho += A.mass[j] * K.poly6(d2); });
             if (useParticles) {
-                particleGrid.forEachWithin(x, h, [&](int, const Vec2&, double d2) { rho += kernels::poly6(d2, h); });
+                particleGrid.forEachWithin(x, h, [&](int, const Vec2&, double d2) { rho += K.poly6(d2); });
             } else if (analytic) {
                 // Walls are fluid at the agent's rest density (the previous step's; at the first
                 // step, the clamp of its density without walls).
@@ -115,7 +141,7 @@ void SPH::prepare(const StepContext& ctx) {
                 wallarea::occludedAreas(x, h, ctx.world.segments(), near, pieces);
                 for (const wallarea::WallPiece& s : pieces) {
                     const double r = 0.5 * (s.distance + h);
-                    rho += s.area * rest * kernels::poly6(r * r, h);
+                    rho += s.area * rest * K.poly6(r * r);
                 }
             }
             average_[i] = known_[i] ? (1.0 - w) * average_[i] + w * rho : rho;
@@ -141,9 +167,9 @@ void SPH::prepare(const StepContext& ctx) {
         const std::size_t k = static_cast<std::size_t>(kk);
         const Vec2& x = particles[k];
         double walls = 0;
-        particleGrid.forEachWithin(x, h, [&](int, const Vec2&, double d2) { walls += kernels::poly6(d2, h); });
+        particleGrid.forEachWithin(x, h, [&](int, const Vec2&, double d2) { walls += K.poly6(d2); });
         double rho = walls;
-        ctx.grid.forEachWithin(x, h, [&](int j, const Vec2&, double d2) { rho += A.mass[j] * kernels::poly6(d2, h); });
+        ctx.grid.forEachWithin(x, h, [&](int j, const Vec2&, double d2) { rho += A.mass[j] * K.poly6(d2); });
         double rest;
         if (rule == WallPressure::Fixed) {
             rest = walls;  // the wall's own rest state (not clamped: it is not a pedestrian's choice)
@@ -162,6 +188,7 @@ Vec2 SPH::acceleration(const AgentQuery& q, const StepContext& ctx) const {
     if (i >= density_.size() || !(density_[i] > 0)) return {0, 0};
     const AgentStore& A = ctx.agents;
     const double h = smoothingLength();
+    const SphKernels K(h);
     const double rhoI = density_[i], pI = pressure_[i];
     const bool pressure = pI > 0;  // absolute pressure: only a compressed agent is pushed
 
@@ -173,10 +200,10 @@ Vec2 SPH::acceleration(const AgentQuery& q, const StepContext& ctx) const {
         if (!(rhoJ > 0)) continue;
         if (pressure) {
             const Vec2 away = -nb.offset / nb.distance;  // from j to i
-            a += A.mass[j] * (pI + pressure_[j]) / (2.0 * rhoJ) * kernels::spikyGradMagnitude(nb.distance, h) * away;
+            a += A.mass[j] * (pI + pressure_[j]) / (2.0 * rhoJ) * K.spikyGradMagnitude(nb.distance) * away;
         }
         if (viscosity_ > 0)
-            a += viscosity_ * A.mass[j] / rhoJ * kernels::viscosityLaplacian(nb.distance, h) * (A.vel[j] - q.velocity);
+            a += viscosity_ * A.mass[j] / rhoJ * K.viscosityLaplacian(nb.distance) * (A.vel[j] - q.velocity);
     }
 
     if (!analyticWalls() && !wallDensity_.empty()) {
@@ -192,20 +219,21 @@ Vec2 SPH::acceleration(const AgentQuery& q, const StepContext& ctx) const {
                 if (r < 1e-12 || !(rhoK > 0)) return;
                 if (wallPush) {
                     const double pK = rule == WallPressure::Mirrored ? pI : wallPressure_[k];
-                    a += (pI + pK) / (2.0 * rhoK) * kernels::spikyGradMagnitude(r, h) * Vec2(-d / r);
+                    a += (pI + pK) / (2.0 * rhoK) * K.spikyGradMagnitude(r) * Vec2(-d / r);
                 }
                 // A boundary particle is fluid at rest: v_k = 0.
-                if (wallVisc) a -= viscosity_ / rhoK * kernels::viscosityLaplacian(r, h) * q.velocity;
+                if (wallVisc) a -= viscosity_ / rhoK * K.viscosityLaplacian(r) * q.velocity;
             });
     } else if (pressure && analyticWalls()) {
-        std::vector<int> near;
-        std::vector<wallarea::WallPiece> pieces;
+        // Per-thread scratch, reused from call to call (no allocation inside a step).
+        thread_local std::vector<int> near;
+        thread_local std::vector<wallarea::WallPiece> pieces;
         ctx.world.segmentsNear(q.position, h, near);
         wallarea::occludedAreas(q.position, h, ctx.world.segments(), near, pieces);
         for (const wallarea::WallPiece& s : pieces) {
             if (s.distance < 1e-12) continue;
             const double r = 0.5 * (s.distance + h);
-            a += s.area * pI * kernels::spikyGradMagnitude(r, h) * Vec2((q.position - s.nearest) / s.distance);
+            a += s.area * pI * K.spikyGradMagnitude(r) * Vec2((q.position - s.nearest) / s.distance);
         }
     }
     return a / rhoI;

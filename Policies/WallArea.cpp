@@ -34,8 +34,10 @@ bool contains(const View& v, double theta) {
 void occludedAreas(const Vec2& p, double h, const std::vector<Segment>& segments, const std::vector<int>& near,
                    std::vector<WallPiece>& out) {
     out.clear();
-    std::vector<View> views;
-    views.reserve(near.size());
+    // Per-thread scratch, reused from call to call (no allocation inside a step).
+    thread_local std::vector<View> views;
+    thread_local std::vector<double> cuts, area;
+    views.clear();
     for (int s : near) {
         const Segment& seg = segments[s];
         const Vec2 ab = seg.b - seg.a;
@@ -67,8 +69,7 @@ void occludedAreas(const Vec2& p, double h, const std::vector<Segment>& segments
     if (views.empty()) return;
 
     // Elementary arcs between consecutive interval ends: on each, the first segment hit is fixed.
-    std::vector<double> cuts;
-    cuts.reserve(2 * views.size());
+    cuts.clear();
     for (const View& v : views) {
         cuts.push_back(v.start);
         cuts.push_back(normAngle(v.start + v.width));
@@ -76,7 +77,7 @@ void occludedAreas(const Vec2& p, double h, const std::vector<Segment>& segments
     std::sort(cuts.begin(), cuts.end());
     cuts.erase(std::unique(cuts.begin(), cuts.end(), [](double a, double b) { return b - a < 1e-13; }), cuts.end());
 
-    std::vector<double> area(views.size(), 0.0);
+    area.assign(views.size(), 0.0);
     const std::size_t m = cuts.size();
     for (std::size_t k = 0; k < m; ++k) {
         const double a0 = cuts[k];

@@ -46,9 +46,10 @@ void PointGrid::build(const std::vector<Vec2>& points, double cellSize, bool per
         origin_ = lo;
     }
     const int ncells = nx_ * ny_;
+    const std::size_t n = points.size();
     cellStart_.assign(ncells + 1, 0);
-    std::vector<int> cellOf(points.size());
-    for (std::size_t i = 0; i < points.size(); ++i) {
+    cellOf_.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
         int x = cellX(points[i].x()), y = cellY(points[i].y());
         if (periodic_) {
             x = ((x % nx_) + nx_) % nx_;
@@ -57,14 +58,19 @@ void PointGrid::build(const std::vector<Vec2>& points, double cellSize, bool per
             x = std::clamp(x, 0, nx_ - 1);
             y = std::clamp(y, 0, ny_ - 1);
         }
-        cellOf[i] = y * nx_ + x;
-        ++cellStart_[cellOf[i] + 1];
+        cellOf_[i] = y * nx_ + x;
+        ++cellStart_[cellOf_[i] + 1];
     }
     for (int c = 0; c < ncells; ++c) cellStart_[c + 1] += cellStart_[c];
-    sorted_.resize(points.size());
-    std::vector<int> fill(cellStart_.begin(), cellStart_.end() - 1);
+    sorted_.resize(n);
+    sortedPos_.resize(n);
+    fill_.assign(cellStart_.begin(), cellStart_.end() - 1);
     // Counting sort, stable: within a cell, indices stay ascending.
-    for (std::size_t i = 0; i < points.size(); ++i) sorted_[fill[cellOf[i]]++] = static_cast<int>(i);
+    for (std::size_t i = 0; i < n; ++i) {
+        const int k = fill_[cellOf_[i]]++;
+        sorted_[k] = static_cast<int>(i);
+        sortedPos_[k] = points[i];
+    }
 }
 
 std::vector<int> PointGrid::within(const Vec2& p, double radius) const {
@@ -76,7 +82,8 @@ std::vector<int> PointGrid::within(const Vec2& p, double radius) const {
 
 void SegmentGrid::build(const std::vector<Segment>& segments, double cellSize) {
     segments_ = &segments;
-    cells_.clear();
+    cellStart_.clear();
+    items_.clear();
     nx_ = ny_ = 0;
     if (segments.empty()) return;
     cell_ = cellSize > 0 ? cellSize : 1.0;
@@ -92,37 +99,52 @@ void SegmentGrid::build(const std::vector<Segment>& segments, double cellSize) {
         cell_ *= 2;
     }
     origin_ = lo;
-    cells_.assign(static_cast<std::size_t>(nx_) * ny_, {});
-    for (std::size_t k = 0; k < segments.size(); ++k) {
-        const Segment& s = segments[k];
-        // Register the segment in every cell its bounding box touches (conservative).
+    // Register each segment in every cell its bounding box touches (conservative), stored as one
+    // array with per-cell offsets (two passes: count, then fill in segment order).
+    const std::size_t ncells = static_cast<std::size_t>(nx_) * ny_;
+    cellStart_.assign(ncells + 1, 0);
+    auto forCells = [&](const Segment& s, auto&& f) {
         const Vec2 a = s.a.cwiseMin(s.b), b = s.a.cwiseMax(s.b);
         const int x0 = static_cast<int>(std::floor((a.x() - origin_.x()) / cell_));
         const int x1 = static_cast<int>(std::floor((b.x() - origin_.x()) / cell_));
         const int y0 = static_cast<int>(std::floor((a.y() - origin_.y()) / cell_));
         const int y1 = static_cast<int>(std::floor((b.y() - origin_.y()) / cell_));
         for (int y = std::max(0, y0); y <= std::min(ny_ - 1, y1); ++y)
-            for (int x = std::max(0, x0); x <= std::min(nx_ - 1, x1); ++x)
-                cells_[static_cast<std::size_t>(y) * nx_ + x].push_back(static_cast<int>(k));
-    }
+            for (int x = std::max(0, x0); x <= std::min(nx_ - 1, x1); ++x) f(static_cast<std::size_t>(y) * nx_ + x);
+    };
+    for (const Segment& s : segments) forCells(s, [&](std::size_t c) { ++cellStart_[c + 1]; });
+    for (std::size_t c = 0; c < ncells; ++c) cellStart_[c + 1] += cellStart_[c];
+    items_.resize(static_cast<std::size_t>(cellStart_[ncells]));
+    std::vector<int> fill(cellStart_.begin(), cellStart_.end() - 1);
+    for (std::size_t k = 0; k < segments.size(); ++k)
+        forCells(segments[k], [&](std::size_t c) { items_[static_cast<std::size_t>(fill[c]++)] = static_cast<int>(k); });
 }
 
 void SegmentGrid::near(const Vec2& p, double radius, std::vector<int>& out) const {
     out.clear();
     if (empty()) return;
-    const int x0 = std::max(0, static_cast<int>(std::floor((p.x() - radius - origin_.x()) / cell_)));
-    const int x1 = std::min(nx_ - 1, static_cast<int>(std::floor((p.x() + radius - origin_.x()) / cell_)));
-    const int y0 = std::max(0, static_cast<int>(std::floor((p.y() - radius - origin_.y()) / cell_)));
-    const int y1 = std::min(ny_ - 1, static_cast<int>(std::floor((p.y() + radius - origin_.y()) / cell_)));
+    // Cell range of the query's bounding box, padded by 1 µm (a superset is harmless: every
+    // candidate is tested by distance, and the result is sorted).
+    const double reach = radius + 1e-6, inv = 1.0 / cell_;
+    auto cell = [](double v, int n) { return !(v >= 0) ? -1 : (v >= n ? n : static_cast<int>(v)); };
+    const int x0 = std::max(0, cell((p.x() - reach - origin_.x()) * inv, nx_));
+    const int x1 = std::min(nx_ - 1, cell((p.x() + reach - origin_.x()) * inv, nx_));
+    const int y0 = std::max(0, cell((p.y() - reach - origin_.y()) * inv, ny_));
+    const int y1 = std::min(ny_ - 1, cell((p.y() + reach - origin_.y()) * inv, ny_));
     const double r2 = radius * radius;
     for (int y = y0; y <= y1; ++y)
-        for (int x = x0; x <= x1; ++x)
-            for (int k : cells_[static_cast<std::size_t>(y) * nx_ + x]) {
-                const Segment& s = (*segments_)[k];
-                if (distanceToSegmentSquared(p, s.a, s.b) <= r2) out.push_back(k);
+        for (int x = x0; x <= x1; ++x) {
+            const std::size_t c = static_cast<std::size_t>(y) * nx_ + x;
+            for (int k = cellStart_[c]; k < cellStart_[c + 1]; ++k) {
+                const int s = items_[static_cast<std::size_t>(k)];
+                const Segment& seg = (*segments_)[static_cast<std::size_t>(s)];
+                if (distanceToSegmentSquared(p, seg.a, seg.b) <= r2) out.push_back(s);
             }
-    std::sort(out.begin(), out.end());
-    out.erase(std::unique(out.begin(), out.end()), out.end());
+        }
+    if (out.size() > 1) {
+        std::sort(out.begin(), out.end());
+        out.erase(std::unique(out.begin(), out.end()), out.end());
+    }
 }
 
 }  // namespace ch

@@ -5,6 +5,7 @@
 #include "crowdhealth/geometry.h"
 #include "crowdhealth/types.h"
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -38,9 +39,16 @@ private:
     Vec2 origin_{0, 0};
     int nx_ = 1, ny_ = 1;
     std::vector<int> cellStart_;  ///< size nx*ny+1, counting-sort offsets
-    std::vector<int> sorted_;     ///< point indices, grouped by cell
+    std::vector<int> sorted_;     ///< point indices, grouped by cell (row-major cells)
+    std::vector<Vec2> sortedPos_; ///< points[sorted_[k]]: queries read positions contiguously
+    std::vector<int> cellOf_, fill_;  ///< build scratch, kept to avoid allocating every step
 
     int cellX(double x) const { return static_cast<int>(std::floor((x - origin_.x()) / cw_)); }
+    /// floor(v) for a cell coordinate, limited to [-1, n] (NaN gives -1) without calling floor.
+    static int floorClamped(double v, int n) {
+        if (!(v >= 0)) return -1;
+        return v >= n ? n : static_cast<int>(v);
+    }
     int cellY(double y) const { return static_cast<int>(std::floor((y - origin_.y()) / ch_)); }
 };
 
@@ -57,34 +65,45 @@ private:
     double cell_ = 1;
     Vec2 origin_{0, 0};
     int nx_ = 0, ny_ = 0;
-    std::vector<std::vector<int>> cells_;
+    std::vector<int> cellStart_;  ///< size nx*ny+1: the segments of cell c are items_[start[c], start[c+1])
+    std::vector<int> items_;
 };
 
 // ---- template implementation -------------------------------------------------------------
 
 template <class F>
-void PointGrid::forEachWithin(const Vec2& p, double radius, F&& f) const {
-    if (points_ == nullptr || points_->empty()) return;
-    const std::vector<Vec2>& pts = *points_;
+void PointGrid::forEachWithin(const Vec2& query, double radius, F&& f) const {
+    if (points_ == nullptr || sorted_.empty()) return;
+    const Vec2 p = query;  // a local copy: f may store to memory the query point could alias
     const double r2 = radius * radius;
+    if (!periodic_) {
+        // Only the cells touched by the query disc's bounding box, padded by 1 µm so that rounding
+        // never drops a point at exactly `radius`. Cells of one row are contiguous in sorted_, so
+        // each row is one run over sortedPos_. The visit order (rows, then cells, then ascending
+        // index) is the same as scanning whole cells, so sums over neighbours do not change.
+        // (Multiplying by the inverse cell size may round differently from the division used to
+        // bin the points, by far less than the pad.)
+        const double reach = radius + 1e-6;
+        const double ix = 1.0 / cw_, iy = 1.0 / ch_;
+        const int x0 = std::max(0, floorClamped((p.x() - reach - origin_.x()) * ix, nx_));
+        const int x1 = std::min(nx_ - 1, floorClamped((p.x() + reach - origin_.x()) * ix, nx_));
+        const int y0 = std::max(0, floorClamped((p.y() - reach - origin_.y()) * iy, ny_));
+        const int y1 = std::min(ny_ - 1, floorClamped((p.y() + reach - origin_.y()) * iy, ny_));
+        if (x0 > x1) return;
+        for (int y = y0; y <= y1; ++y) {
+            const int row = y * nx_;
+            const int end = cellStart_[row + x1 + 1];
+            for (int k = cellStart_[row + x0]; k < end; ++k) {
+                const Vec2 d = sortedPos_[k] - p;
+                const double d2 = d.squaredNorm();
+                if (d2 <= r2) f(sorted_[k], d, d2);
+            }
+        }
+        return;
+    }
     const int rx = static_cast<int>(std::ceil(radius / cw_));
     const int ry = static_cast<int>(std::ceil(radius / ch_));
     const int cx = cellX(p.x()), cy = cellY(p.y());
-    if (!periodic_) {
-        const int x0 = std::max(0, cx - rx), x1 = std::min(nx_ - 1, cx + rx);
-        const int y0 = std::max(0, cy - ry), y1 = std::min(ny_ - 1, cy + ry);
-        for (int y = y0; y <= y1; ++y)
-            for (int x = x0; x <= x1; ++x) {
-                const int c = y * nx_ + x;
-                for (int k = cellStart_[c]; k < cellStart_[c + 1]; ++k) {
-                    const int j = sorted_[k];
-                    const Vec2 d = pts[j] - p;
-                    const double d2 = d.squaredNorm();
-                    if (d2 <= r2) f(j, d, d2);
-                }
-            }
-        return;
-    }
     // Periodic: visit each distinct wrapped cell once, then use the minimum-image offset.
     // (With radius > half a period only the nearest image of each point is reported.)
     const int sx = std::min(2 * rx + 1, nx_), sy = std::min(2 * ry + 1, ny_);
@@ -95,7 +114,7 @@ void PointGrid::forEachWithin(const Vec2& p, double radius, F&& f) const {
             const int c = y * nx_ + x;
             for (int k = cellStart_[c]; k < cellStart_[c + 1]; ++k) {
                 const int j = sorted_[k];
-                Vec2 d = pts[j] - p;
+                Vec2 d = sortedPos_[k] - p;
                 d.x() -= width_ * std::round(d.x() / width_);
                 d.y() -= height_ * std::round(d.y() / height_);
                 const double d2 = d.squaredNorm();

@@ -1,0 +1,551 @@
+// CrowdHealth benchmark — a plain timed program (not a ctest test). Builds its scenes in code
+// (no XML) and reports ms per fine step, agent-steps per second, peak memory and where the time
+// goes. See docs/performance.md for the numbers and how to read them.
+//
+//   crowdhealth-bench [--quick] [--large] [--threads 1,2] [--steps N] [--only TEXT] [--csv FILE]
+//
+// Every case runs in its own forked child process, so the peak memory (VmHWM) is that case's
+// own (the parent never starts an OpenMP region, so forking is safe with libgomp).
+#include "crowdhealth/grid.h"
+#include "crowdhealth/kernels.h"
+#include "crowdhealth/registry.h"
+#include "crowdhealth/scenario.h"
+#include "crowdhealth/simulation.h"
+
+#include <omp.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <functional>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+using namespace ch;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+// ---------------------------------------------------------------------------------------------
+// Scenes
+
+ComponentSpec component(const std::string& name, const std::map<std::string, double>& values = {}) {
+    const ComponentInfo* info = Registry::instance().find(name);
+    if (info == nullptr) throw std::runtime_error("unregistered component " + name);
+    ComponentSpec c;
+    c.name = name;
+    c.params = ParamSet(Registry::fullTable(*info));
+    for (const auto& [k, v] : values) c.params.set(k, v);
+    return c;
+}
+
+ObstacleSpec box(double x0, double y0, double x1, double y1) {
+    ObstacleSpec o;
+    o.points = {Vec2(x0, y0), Vec2(x1, y0), Vec2(x1, y1), Vec2(x0, y1)};  // counter-clockwise
+    return o;
+}
+
+constexpr double kDenseDensity = 4.5;  // P/m² at the start
+
+/// Dense SPH crowd: a square room with one 1.2 m exit in the middle of its right wall, agents on a
+/// jittered lattice at 4.5 P/m², goal 2 m past the door; van Toll's SPH profile (goal + SPH +
+/// contact, analytic walls) on the fine step 0.02 s. The coarse step equals the fine step so that
+/// one stepCoarse() is one fine step (the policy has fine steps only, so the dynamics are the same
+/// as with delta_time = 0.1).
+ScenarioSpec denseSph(std::size_t n, std::uint64_t seed = 1) {
+    ScenarioSpec s;
+    s.sourceFile = "<bench:dense-sph>";
+    s.deltaTime = 0.02;
+    s.deltaTimeFine = 0.02;
+    s.endTime = -1;
+    s.seed = seed;
+    s.world.type = WorldType::Infinite;
+
+    PolicySpec p;
+    p.id = 0;
+    p.contactForceScale = 0;
+    StepSpec st;
+    st.timing = StepTiming::Fine;
+    st.method = OptimisationMethod::Gradient;
+    st.relaxationTime = 0.5;
+    st.components = {component("GoalReachingForce", {{"range", 0}, {"strength", 1}}),
+                     component("SPH", {{"range", 1}}), component("ContactForces", {{"range", 1}})};
+    p.steps.push_back(std::move(st));
+    s.policies.push_back(std::move(p));
+
+    const double spacing = 1.0 / std::sqrt(kDenseDensity);
+    const std::size_t perRow = static_cast<std::size_t>(std::ceil(std::sqrt(static_cast<double>(n))));
+    const double L = static_cast<double>(perRow) * spacing;
+    const double door = 1.2, t = 1.0;
+    s.obstacles = {box(-t, -t, 0, L + t), box(0, -t, L, 0), box(0, L, L, L + t),
+                   box(L, -t, L + t, 0.5 * (L - door)), box(L, 0.5 * (L + door), L + t, L + t)};
+
+    std::mt19937_64 rng(seed);
+    std::uniform_real_distribution<double> radius(0.215, 0.265), jitter(-0.05 * spacing, 0.05 * spacing);
+    s.agents.reserve(n);
+    for (std::size_t k = 0; k < n; ++k) {
+        AgentSpec a;
+        a.id = static_cast<AgentId>(k);
+        const double x = (static_cast<double>(k % perRow) + 0.5) * spacing + jitter(rng);
+        const double y = (static_cast<double>(k / perRow) + 0.5) * spacing + jitter(rng);
+        a.position = Vec2(x, y);
+        a.goal = Vec2(L + 2.0, 0.5 * L);
+        a.goalRadius = 0.5;
+        a.removeAtGoal = true;
+        a.radius = radius(rng);
+        a.mass = (a.radius / 0.24) * (a.radius / 0.24);
+        a.prefSpeed = 1.4;
+        a.maxSpeed = 1.8;
+        a.maxAcceleration = 5.0;
+        s.agents.push_back(std::move(a));
+    }
+    return s;
+}
+
+/// UMANS social forces: n agents on a 1 m lattice (1 P/m²) in an open plane, alternate rows
+/// walking +x and −x (counter-flow); SocialForcesAvoidance range 5 m + GoalReachingForce, gradient
+/// method, delta_time 0.1 s, UMANS post-clamp contact (ContactForceScale 62.5), as
+/// Examples/policies/social-forces.xml.
+ScenarioSpec socialForces(std::size_t n, std::uint64_t seed = 1) {
+    ScenarioSpec s;
+    s.sourceFile = "<bench:social-forces>";
+    s.deltaTime = 0.1;
+    s.endTime = -1;
+    s.seed = seed;
+    PolicySpec p;
+    p.id = 0;
+    p.contactForceScale = 62.5;
+    StepSpec st;
+    st.timing = StepTiming::Coarse;
+    st.method = OptimisationMethod::Gradient;
+    st.relaxationTime = 0.5;
+    st.components = {component("SocialForcesAvoidance", {{"range", 5}}), component("GoalReachingForce")};
+    p.steps.push_back(std::move(st));
+    s.policies.push_back(std::move(p));
+    const std::size_t perRow = static_cast<std::size_t>(std::ceil(std::sqrt(static_cast<double>(n))));
+    std::mt19937_64 rng(seed);
+    std::uniform_real_distribution<double> jitter(-0.1, 0.1);
+    for (std::size_t k = 0; k < n; ++k) {
+        AgentSpec a;
+        a.id = static_cast<AgentId>(k);
+        const std::size_t row = k / perRow;
+        a.position = Vec2(static_cast<double>(k % perRow) + jitter(rng), static_cast<double>(row) + jitter(rng));
+        a.goal = Vec2(row % 2 == 0 ? 1000.0 : -1000.0, a.position.y());
+        a.radius = 0.24;
+        s.agents.push_back(std::move(a));
+    }
+    return s;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Measurement helpers
+
+/// Reads a "Key:   123 kB" line of /proc/self/status (KiB), or getrusage's maxrss for VmHWM.
+double statusKiB(const char* key) {
+    std::ifstream in("/proc/self/status");
+    std::string line;
+    const std::size_t len = std::strlen(key);
+    while (std::getline(in, line))
+        if (line.compare(0, len, key) == 0) return std::atof(line.c_str() + len + 1);
+    if (std::strcmp(key, "VmHWM") == 0) {
+        rusage u{};
+        getrusage(RUSAGE_SELF, &u);
+        return static_cast<double>(u.ru_maxrss);
+    }
+    return 0;
+}
+
+double median(std::vector<double> v) {
+    if (v.empty()) return 0;
+    std::sort(v.begin(), v.end());
+    const std::size_t m = v.size() / 2;
+    return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
+}
+
+std::uint64_t stateHash(const AgentStore& A) {
+    std::uint64_t h = 1469598103934665603ull;
+    auto mix = [&](const void* p, std::size_t bytes) {
+        const unsigned char* c = static_cast<const unsigned char*>(p);
+        for (std::size_t k = 0; k < bytes; ++k) h = (h ^ c[k]) * 1099511628211ull;
+    };
+    const std::size_t n = A.size();
+    mix(&n, sizeof n);
+    for (std::size_t i = 0; i < n; ++i) {
+        mix(A.pos[i].data(), 2 * sizeof(double));
+        mix(A.vel[i].data(), 2 * sizeof(double));
+    }
+    return h;
+}
+
+/// The result of one case, passed from the child to the parent through a pipe (plain data).
+struct Result {
+    char kind[24] = {};
+    char scene[32] = {};
+    double n = 0, threads = 0;
+    double msMedian = 0, msMin = 0, msMax = 0;
+    double agentStepsPerSec = 0;
+    double hwmMiB = 0, rssMiB = 0;
+    double phaseMs[Simulation::kPhases] = {};
+    double limitMs = 0;      ///< tight-kernel lower bound for the same pair work (dense SPH)
+    double pairsPerAgent = 0;
+    double extra1 = 0, extra2 = 0;  ///< neighbour search: build ms, ns per query; kernel: pairs/s
+    std::uint64_t hash = 0;
+    bool ok = false;
+};
+
+/// Tight SPH kernel loops over precomputed neighbour lists (CSR, ordered pairs within h, i
+/// included for the density): one density pass and one pressure-force pass, as a step needs.
+/// Returns the shortest wall time (ms) of one density + force evaluation, and the pair count.
+std::pair<double, double> kernelLimit(const std::vector<Vec2>& pos, const std::vector<double>& mass, int threads,
+                                      int reps) {
+    const double h = 1.0;
+    const std::size_t n = pos.size();
+    PointGrid grid;
+    grid.build(pos, h);
+    std::vector<int> start(n + 1, 0), nb;
+    nb.reserve(n * 16);
+    for (std::size_t i = 0; i < n; ++i) {
+        grid.forEachWithin(pos[i], h, [&](int j, const Vec2&, double d2) {
+            if (d2 < h * h) nb.push_back(j);
+        });
+        start[i + 1] = static_cast<int>(nb.size());
+    }
+    std::vector<double> rho(n), pr(n);
+    std::vector<Vec2> acc(n);
+    const double c6 = 4.0 / (kPi * std::pow(h, 8)), cs = 30.0 / (kPi * std::pow(h, 5));
+    omp_set_num_threads(threads);
+    std::vector<double> times;
+    for (int r = 0; r < reps; ++r) {
+        const auto t0 = Clock::now();
+#pragma omp parallel
+        {
+#pragma omp for schedule(static)
+            for (std::ptrdiff_t ii = 0; ii < static_cast<std::ptrdiff_t>(n); ++ii) {
+                const Vec2 p = pos[static_cast<std::size_t>(ii)];
+                double s = 0;
+                for (int k = start[ii]; k < start[ii + 1]; ++k) {
+                    const int j = nb[k];
+                    const double d = h * h - (pos[j] - p).squaredNorm();
+                    s += mass[j] * c6 * d * d * d;
+                }
+                rho[ii] = s;
+                pr[ii] = 200.0 * std::max(0.0, s - 4.0);
+            }
+#pragma omp for schedule(static)
+            for (std::ptrdiff_t ii = 0; ii < static_cast<std::ptrdiff_t>(n); ++ii) {
+                const Vec2 p = pos[static_cast<std::size_t>(ii)];
+                Vec2 a(0, 0);
+                for (int k = start[ii]; k < start[ii + 1]; ++k) {
+                    const int j = nb[k];
+                    if (j == ii) continue;
+                    const Vec2 d = p - pos[j];
+                    const double rr = d.norm();
+                    if (rr < 1e-12) continue;
+                    a += mass[j] * (pr[ii] + pr[j]) / (2.0 * rho[j]) * cs * (h - rr) * (h - rr) / rr * d;
+                }
+                acc[ii] = a / rho[ii];
+            }
+        }
+        times.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+    }
+    volatile double sink = acc.empty() ? 0.0 : acc[n / 2].x();
+    (void)sink;
+    // The best of the repetitions: the limit is a best case (other work on the machine only slows it).
+    return {*std::min_element(times.begin(), times.end()), static_cast<double>(nb.size())};
+}
+
+struct Case {
+    std::string kind;  // "dense-sph", "social-forces", "neighbours"
+    std::size_t n;
+    int threads;
+    int warmup, steps;
+};
+
+void fillPhases(Result& r, const Simulation& sim, int steps) {
+    for (std::size_t p = 0; p < Simulation::kPhases; ++p) r.phaseMs[p] = 1e3 * sim.phaseSeconds()[p] / steps;
+}
+void resetPhases(Simulation& sim) { sim.resetPhaseTimes(); }
+
+Result runSimCase(const Case& c) {
+    Result r;
+    std::snprintf(r.kind, sizeof r.kind, "%s", "step");
+    std::snprintf(r.scene, sizeof r.scene, "%s", c.kind.c_str());
+    r.n = static_cast<double>(c.n);
+    r.threads = c.threads;
+    std::unique_ptr<Simulation> sim;
+    {
+        const ScenarioSpec spec = c.kind == "dense-sph" ? denseSph(c.n) : socialForces(c.n);
+        sim = std::make_unique<Simulation>(spec);
+    }  // the bench's copy of the spec is gone; the Simulation keeps its own
+    sim->setThreads(c.threads);
+    for (int k = 0; k < c.warmup; ++k) sim->stepCoarse();
+    resetPhases(*sim);
+    std::vector<double> ms;
+    std::uint64_t agentSteps = 0;
+    double total = 0;
+    for (int k = 0; k < c.steps; ++k) {
+        const std::size_t agents = sim->agents().size();
+        const auto t0 = Clock::now();
+        sim->stepCoarse();
+        const double dt = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+        ms.push_back(dt);
+        total += dt;
+        agentSteps += agents;
+    }
+    r.msMedian = median(ms);
+    r.msMin = *std::min_element(ms.begin(), ms.end());
+    r.msMax = *std::max_element(ms.begin(), ms.end());
+    r.agentStepsPerSec = static_cast<double>(agentSteps) / (total * 1e-3);
+    fillPhases(r, *sim, c.steps);
+    r.hash = stateHash(sim->agents());
+    r.hwmMiB = statusKiB("VmHWM") / 1024.0;
+    r.rssMiB = statusKiB("VmRSS") / 1024.0;
+    if (c.kind == "dense-sph") {
+        const auto [limit, pairs] = kernelLimit(sim->agents().pos, sim->agents().mass, c.threads, 5);
+        r.limitMs = limit;
+        r.pairsPerAgent = pairs / std::max<double>(1.0, static_cast<double>(sim->agents().size()));
+        r.extra1 = pairs / (limit * 1e-3);  // kernel pair evaluations (density + force) per second
+    }
+    r.ok = true;
+    return r;
+}
+
+/// Neighbour search alone on the dense scene's positions: grid build (one thread) and one query
+/// per agent with radius 1 m (cell 1 m) — what SPH density and the per-agent gather do.
+Result runNeighbourCase(const Case& c, double radius) {
+    Result r;
+    std::snprintf(r.kind, sizeof r.kind, "%s", "neighbours");
+    std::snprintf(r.scene, sizeof r.scene, "grid r=%.1fm", radius);
+    r.n = static_cast<double>(c.n);
+    r.threads = c.threads;
+    const ScenarioSpec spec = radius > 2 ? socialForces(c.n) : denseSph(c.n);
+    std::vector<Vec2> pos;
+    pos.reserve(spec.agents.size());
+    for (const AgentSpec& a : spec.agents) pos.push_back(a.position);
+    omp_set_num_threads(c.threads);
+    PointGrid grid;
+    std::vector<double> build, query;
+    std::uint64_t hits = 0;
+    for (int k = 0; k < c.warmup + c.steps; ++k) {
+        auto t0 = Clock::now();
+        grid.build(pos, radius);
+        const double b = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+        t0 = Clock::now();
+        std::uint64_t count = 0;
+#pragma omp parallel for schedule(static) reduction(+ : count)
+        for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(pos.size()); ++i)
+            grid.forEachWithin(pos[static_cast<std::size_t>(i)], radius, [&](int, const Vec2&, double) { ++count; });
+        const double q = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+        hits = count;
+        if (k >= c.warmup) {
+            build.push_back(b);
+            query.push_back(q);
+        }
+    }
+    r.extra1 = median(build);
+    r.extra2 = 1e6 * median(query) / static_cast<double>(pos.size());  // ns per query
+    r.msMedian = r.extra1 + median(query);
+    r.pairsPerAgent = static_cast<double>(hits) / static_cast<double>(pos.size());
+    r.hwmMiB = statusKiB("VmHWM") / 1024.0;
+    r.rssMiB = statusKiB("VmRSS") / 1024.0;
+    r.ok = true;
+    return r;
+}
+
+/// Runs f in a forked child and returns its Result (or !ok if the child failed).
+Result inChild(const std::function<Result()>& f, bool fork) {
+    if (!fork) return f();
+    int fd[2];
+    if (pipe(fd) != 0) return f();
+    const pid_t pid = ::fork();
+    if (pid == 0) {
+        close(fd[0]);
+        Result r;
+        try {
+            r = f();
+        } catch (const std::exception& e) {
+            std::fprintf(stderr, "case failed: %s\n", e.what());
+        }
+        const ssize_t w = write(fd[1], &r, sizeof r);
+        (void)w;
+        close(fd[1]);
+        _exit(r.ok ? 0 : 1);
+    }
+    close(fd[1]);
+    Result r;
+    std::size_t got = 0;
+    while (got < sizeof r) {
+        const ssize_t k = read(fd[0], reinterpret_cast<char*>(&r) + got, sizeof r - got);
+        if (k <= 0) break;
+        got += static_cast<std::size_t>(k);
+    }
+    close(fd[0]);
+    int status = 0;
+    waitpid(pid, &status, 0);
+    if (got != sizeof r) r.ok = false;
+    return r;
+}
+
+std::vector<int> parseList(const std::string& s) {
+    std::vector<int> out;
+    std::stringstream ss(s);
+    std::string item;
+    while (std::getline(ss, item, ','))
+        if (!item.empty()) out.push_back(std::stoi(item));
+    return out;
+}
+
+void usage() {
+    std::cout << "crowdhealth-bench — timed benchmark scenes (see docs/performance.md)\n"
+                 "  --quick         1k and 10k agents only, few steps (smoke run)\n"
+                 "  --large         also the 1M-agent dense SPH crowd\n"
+                 "  --threads LIST  thread counts, comma separated (default 1,2)\n"
+                 "  --steps N       timed steps per case (default: by size)\n"
+                 "  --only TEXT     run only cases whose name contains TEXT (dense, social, neigh)\n"
+                 "  --csv FILE      also write every row as CSV\n"
+                 "  --no-fork       run cases in this process (peak memory then accumulates)\n";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    bool quick = false, large = false, fork = true;
+    std::vector<int> threads = {1, 2};
+    int stepsOverride = 0;
+    std::string csvPath, only;
+    for (int k = 1; k < argc; ++k) {
+        const std::string a = argv[k];
+        auto next = [&]() -> std::string {
+            if (k + 1 >= argc) {
+                std::cerr << a << " needs a value\n";
+                std::exit(2);
+            }
+            return argv[++k];
+        };
+        if (a == "--quick") quick = true;
+        else if (a == "--large") large = true;
+        else if (a == "--threads") threads = parseList(next());
+        else if (a == "--steps") stepsOverride = std::stoi(next());
+        else if (a == "--csv") csvPath = next();
+        else if (a == "--only") only = next();
+        else if (a == "--no-fork") fork = false;
+        else if (a == "--help" || a == "-h") {
+            usage();
+            return 0;
+        } else {
+            std::cerr << "unknown option " << a << "\n";
+            usage();
+            return 2;
+        }
+    }
+    if (threads.empty()) threads = {1};
+
+    std::vector<std::size_t> sizes = quick ? std::vector<std::size_t>{1000, 10000}
+                                           : std::vector<std::size_t>{1000, 10000, 100000};
+    if (large && !quick) sizes.push_back(1000000);
+    auto stepsFor = [&](std::size_t n, int& warm, int& steps) {
+        if (quick) { warm = 2; steps = 5; }
+        else if (n <= 1000) { warm = 10; steps = 41; }
+        else if (n <= 10000) { warm = 5; steps = 21; }
+        else if (n <= 100000) { warm = 3; steps = 11; }
+        else { warm = 2; steps = 5; }
+        if (stepsOverride > 0) steps = stepsOverride;
+    };
+    auto wanted = [&](const std::string& name) { return only.empty() || name.find(only) != std::string::npos; };
+
+    std::vector<Result> results;
+    auto report = [&](const Result& r) {
+        if (!r.ok) {
+            std::printf("  (case failed)\n");
+            return;
+        }
+        results.push_back(r);
+        if (std::strcmp(r.kind, "neighbours") == 0) {
+            std::printf("%-14s %8.0f %3.0f  build %8.3f ms  query %7.1f ns/agent (%5.1f hits)  VmHWM %7.1f MiB\n",
+                        r.scene, r.n, r.threads, r.extra1, r.extra2, r.pairsPerAgent, r.hwmMiB);
+        } else {
+            std::printf("%-14s %8.0f %3.0f  %9.3f  %9.3f  %12.3g  %8.1f  %7.3f  %5.0f%%  %016llx\n", r.scene, r.n,
+                        r.threads, r.msMedian, r.msMin, r.agentStepsPerSec, r.hwmMiB, r.limitMs,
+                        r.limitMs > 0 ? 100.0 * r.limitMs / r.msMedian : 0.0, static_cast<unsigned long long>(r.hash));
+        }
+        std::fflush(stdout);
+    };
+
+    double load[3] = {0, 0, 0};
+    if (getloadavg(load, 3) < 0) load[0] = -1;
+    std::printf("load average at start: %.2f %.2f %.2f on %d cores (other work on the machine skews timings)\n",
+                load[0], load[1], load[2], omp_get_num_procs());
+    std::printf("%-14s %8s %3s  %9s  %9s  %12s  %8s  %7s  %6s  %s\n", "scene", "agents", "thr", "ms/step", "min ms",
+                "agent-step/s", "HWM MiB", "limit", "of lim", "state hash");
+    if (wanted("dense"))
+        for (std::size_t n : sizes)
+            for (int t : threads) {
+                Case c{"dense-sph", n, t, 0, 0};
+                stepsFor(n, c.warmup, c.steps);
+                report(inChild([&] { return runSimCase(c); }, fork));
+            }
+    if (wanted("social"))
+        for (int t : threads) {
+            Case c{"social-forces", 10000, t, 0, 0};
+            stepsFor(10000, c.warmup, c.steps);
+            report(inChild([&] { return runSimCase(c); }, fork));
+        }
+    if (wanted("neigh"))
+        for (std::size_t n : sizes)
+            for (double radius : {1.0, 5.0}) {
+                if (radius > 2 && n > 100000) continue;
+                Case c{"neighbours", n, 1, 0, 0};
+                stepsFor(n, c.warmup, c.steps);
+                report(inChild([&] { return runNeighbourCase(c, radius); }, fork));
+            }
+
+    // Phase breakdown (mean ms per step over the timed steps).
+    std::printf("\nphase breakdown (mean ms per step)\n%-14s %8s %3s", "scene", "agents", "thr");
+    for (std::size_t p = 0; p < Simulation::kPhases; ++p)
+        std::printf(" %11s", Simulation::phaseName(static_cast<Simulation::Phase>(p)));
+    std::printf("\n");
+    for (const Result& r : results) {
+        if (std::strcmp(r.kind, "step") != 0) continue;
+        std::printf("%-14s %8.0f %3.0f", r.scene, r.n, r.threads);
+        for (double ms : r.phaseMs) std::printf(" %11.3f", ms);
+        std::printf("\n");
+    }
+    std::printf("\nlimit = tight SPH kernel loop (density + pressure force) over precomputed neighbour lists "
+                "for the same agents and threads; pairs/agent = ordered pairs within h per agent\n");
+    for (const Result& r : results)
+        if (r.limitMs > 0)
+            std::printf("%-14s %8.0f %3.0f  pairs/agent %5.1f  kernel %8.3g pairs/s  limit %8.3f ms\n", r.scene, r.n,
+                        r.threads, r.pairsPerAgent, r.extra1, r.limitMs);
+
+    if (!csvPath.empty()) {
+        std::ofstream csv(csvPath);
+        csv << "kind,scene,agents,threads,ms_median,ms_min,ms_max,agent_steps_per_s,vmhwm_mib,vmrss_mib";
+        for (std::size_t p = 0; p < Simulation::kPhases; ++p)
+            csv << ",ms_" << Simulation::phaseName(static_cast<Simulation::Phase>(p));
+        csv << ",limit_ms,pairs_per_agent,extra1,extra2,state_hash\n";
+        for (const Result& r : results) {
+            csv << r.kind << ',' << r.scene << ',' << r.n << ',' << r.threads << ',' << r.msMedian << ',' << r.msMin
+                << ',' << r.msMax << ',' << r.agentStepsPerSec << ',' << r.hwmMiB << ',' << r.rssMiB;
+            for (double ms : r.phaseMs) csv << ',' << ms;
+            char hash[20];
+            std::snprintf(hash, sizeof hash, "%016llx", static_cast<unsigned long long>(r.hash));
+            csv << ',' << r.limitMs << ',' << r.pairsPerAgent << ',' << r.extra1 << ',' << r.extra2 << ',' << hash
+                << '\n';
+        }
+        std::printf("\nwrote %s\n", csvPath.c_str());
+    }
+    return 0;
+}
