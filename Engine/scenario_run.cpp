@@ -132,6 +132,7 @@ RunOutcome simulateAndWrite(ch::Simulation& sim, const RunPlan& plan, const fs::
 
     const ch::ScenarioSpec& spec = sim.spec();
     ch::MetricsRecorder metrics(spec.output.metricsInterval);
+    ch::SafetyRecorder safety;  // crowd measures per cell every coarse step (heat map, verdict)
     ch::TrajectoryRecorder trajectory;
     const bool recordTrajectories = plan.writeUmans || plan.writePedPy;
 
@@ -150,6 +151,7 @@ RunOutcome simulateAndWrite(ch::Simulation& sim, const RunPlan& plan, const fs::
     const auto wallStart = std::chrono::steady_clock::now();
     try {
         metrics.sample(sim);  // the t = 0 row, before the first step
+        safety.record(sim);
         if (recordTrajectories) trajectory.record(sim);
         if (!probeDone) probe();
         while (!sim.finished()) {
@@ -159,6 +161,7 @@ RunOutcome simulateAndWrite(ch::Simulation& sim, const RunPlan& plan, const fs::
             }
             sim.stepCoarse();
             metrics.maybeSample(sim);
+            safety.record(sim);
             if (recordTrajectories) trajectory.record(sim);
             if (!probeDone) probe();
             if (hooks.afterStep) hooks.afterStep(sim);
@@ -179,14 +182,17 @@ RunOutcome simulateAndWrite(ch::Simulation& sim, const RunPlan& plan, const fs::
     if (hooks.afterLoop) hooks.afterLoop(sim);
     result.info.wallTimeSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - wallStart).count();
     result.peaks = metrics.peaks();
+    result.verdict = safety.verdict(sim);
 
     // summary.json last: its presence says that every other file is complete.
     try {
         metrics.write(outDir / "metrics.csv");
         ch::writeFileAtomic(outDir / "evacuations.csv", ch::evacuationsCsv(sim));
+        ch::writeFileAtomic(outDir / "health.csv", ch::healthCsv(sim.health()));
+        ch::writeFileAtomic(outDir / "heatmap.csv", safety.heatmapCsv());
         if (plan.writeUmans) trajectory.writeUmans(outDir);
         if (plan.writePedPy) trajectory.writePedPy(outDir / "trajectories.txt", sim.deltaTime());
-        ch::writeFileAtomic(outDir / "summary.json", ch::summaryJson(sim, result.info, result.peaks));
+        ch::writeFileAtomic(outDir / "summary.json", ch::summaryJson(sim, result.info, result.peaks, &result.verdict));
     } catch (const std::exception& e) {
         result.error = std::string("cannot write the outputs: ") + e.what();
     }

@@ -6,6 +6,7 @@
 #include "cli.h"
 
 #include <crowdhealth/output.h>
+#include <crowdhealth/safety.h>
 #include <crowdhealth/simulation.h>
 
 #include <cstdint>
@@ -60,11 +61,13 @@ struct RunOutcome {
     ch::RunInfo info;          ///< the plan's info with interrupted, stoppedAtSafetyCap, wall time, threads
     ch::MetricsPeaks peaks;
     std::optional<double> probedMeanDensity;  ///< 1/m², see RunHooks::probeMeanDensityAt
+    ch::Verdict verdict;       ///< the safety verdict (also in summary.json)
 };
 
 /// Runs `sim` on `threads` OpenMP threads (set in the calling thread) until it finishes, the
-/// safety cap, or Ctrl-C, then writes metrics.csv, evacuations.csv, trajectories and summary.json
-/// (last) atomically into `outDir`, which must exist.
+/// safety cap, or Ctrl-C, then writes metrics.csv, evacuations.csv, health.csv, heatmap.csv,
+/// trajectories and summary.json (last, with the safety verdict) atomically into `outDir`, which
+/// must exist.
 RunOutcome simulateAndWrite(ch::Simulation& sim, const RunPlan& plan, const std::filesystem::path& outDir,
                             int threads, const Options& o, const RunHooks& hooks);
 

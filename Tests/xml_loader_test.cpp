@@ -424,8 +424,8 @@ BOOST_AUTO_TEST_CASE(every_error_is_reported_with_file_and_line) {
     CHECK_DIAG(L, f, 10, "error: duplicate policy id 0 (first defined at " + data(f) + ":6)");
     CHECK_DIAG(L, f, 21, "error: duplicate agent id 4 (first used at " + data(f) + ":17)");
     CHECK_DIAG(L, f, 19, "error: Policy@id: policy 9 does not exist (defined: 0, 1)");
-    // Planned extensions are named as such, not as unknown.
-    CHECK_DIAG(L, f, 31, "error: <Schedule> is not supported yet");
+    // CrowdHealth's own elements are checked like any other.
+    CHECK_DIAG(L, f, 31, "error: unknown attribute 'bogus' on <Schedule> (it takes no attributes)");
     // What UMANS only warns about stays a warning.
     CHECK_DIAG(L, f, 17, "warning: Agent has no <goal>: it will stay where it is");
     // Nothing else: the list above is complete, so no error hides another or is reported twice.
@@ -461,7 +461,7 @@ BOOST_AUTO_TEST_CASE(structural_errors) {
     CHECK_DIAG(L, f, 35, "error: Box@particles: 'maybe' is not a boolean (true, false, 1 or 0)");
     CHECK_DIAG(L, f, 37, "error: Output@metrics_interval: 0 is not in (0, inf) s");
     CHECK_DIAG(L, f, 37, "error: Output@trajectories: 'csv' is not one of: umans, txt, both, none");
-    CHECK_DIAG(L, f, 37, "error: Output@flow_last: 5 is less than flow_first (10)");
+    CHECK_DIAG(L, f, 37, "error: Output@flow_last: 5 must be greater than flow_first (10)");
     // Several top-level elements: tolerated as UMANS does, but not silently.
     CHECK_DIAG(L, f, 39, "warning: <Agents> outside <Simulation> is ignored; move it inside <Simulation>");
     CHECK_DIAG(L, f, 40, "error: unknown element <Scenario> at the top level; allowed here: Simulation");
@@ -527,12 +527,14 @@ BOOST_AUTO_TEST_CASE(time_steps) {
     BOOST_TEST(M.diags.errorCount() == 1);
 }
 
-BOOST_AUTO_TEST_CASE(planned_extensions_are_not_supported_yet) {
-    Load L("unsupported.xml");
-    BOOST_TEST(!L.spec.has_value());
-    CHECK_DIAG(L, "unsupported.xml", 7, "error: <CrowdHealth> is not supported yet");
-    CHECK_DIAG(L, "unsupported.xml", 10, "error: <Schedule> is not supported yet");
-    BOOST_TEST(L.diags.errorCount() == 2);
+BOOST_AUTO_TEST_CASE(schedule_and_crowdhealth_load) {
+    // Once planned, now implemented (Tests/health_*_test.cpp cover them in depth).
+    Load L("schedule.xml");
+    BOOST_REQUIRE(L.spec.has_value());
+    BOOST_TEST(L.diags.errorCount() == 0);
+    BOOST_REQUIRE(L.spec->ramps.size() == 1u);
+    BOOST_TEST(L.spec->ramps[0].column() == "TestOnlyCost.strength");
+    BOOST_TEST(L.spec->policies[0].health.has_value());
 }
 
 BOOST_AUTO_TEST_CASE(warnings_alone_do_not_fail_a_load) {

@@ -11,6 +11,8 @@ std::size_t AgentStore::add(const AgentSpec& s, int policyIndex) {
     radius.push_back(s.radius);
     prefSpeed.push_back(s.prefSpeed);
     maxSpeed.push_back(s.maxSpeed);
+    basePrefSpeed.push_back(s.prefSpeed);
+    baseMaxSpeed.push_back(s.maxSpeed);
     maxAcceleration.push_back(s.maxAcceleration);
     mass.push_back(s.mass);
     goalRadius.push_back(s.goalRadius >= 0 ? s.goalRadius : s.radius);
@@ -47,6 +49,8 @@ void AgentStore::removeMarked(const std::vector<unsigned char>& remove) {
     compact(radius, remove);
     compact(prefSpeed, remove);
     compact(maxSpeed, remove);
+    compact(basePrefSpeed, remove);
+    compact(baseMaxSpeed, remove);
     compact(maxAcceleration, remove);
     compact(mass, remove);
     compact(goalRadius, remove);

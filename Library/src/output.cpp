@@ -3,6 +3,7 @@
 
 #include "crowdhealth/grid.h"
 #include "crowdhealth/kernels.h"
+#include "crowdhealth/safety.h"
 
 #include <algorithm>
 #include <charconv>
@@ -221,12 +222,11 @@ MetricsRow measureMetrics(Simulation& sim, double h) {
         row.meanRestDensity = count > 0 ? sum / static_cast<double>(count) : std::numeric_limits<double>::quiet_NaN();
     }
 
-    // CrowdHealth layer (panic, injury) does not exist yet: the columns stay, at 0.
-    row.meanPanic = 0;
-    row.injured = 0;
-
-    const std::vector<double> pressure = crowdPressure(a, a.density, sim.world(), h);
-    for (const double p : pressure) row.crowdPressure = std::max(row.crowdPressure, p);
+    row.meanPanic = sim.health().meanPanic(a);
+    row.injured = sim.health().injuredCount();
+    const SafetyThresholds grid;
+    row.crowdPressure = crowdField(a, grid.cellSize, grid.gaussianRadius).maxPressure();
+    row.schedule = sim.scheduleValues();
     return row;
 }
 
@@ -240,6 +240,7 @@ static double timeTolerance(double t) { return 1e-9 * std::max(1.0, std::abs(t))
 void MetricsRecorder::sample(Simulation& sim) {
     const double t = sim.time();
     if (!rows_.empty() && rows_.back().time == t) return;
+    if (rows_.empty()) scheduleColumns_ = sim.scheduleColumns();
     rows_.push_back(measureMetrics(sim, h_));
     if (interval_ > 0) {
         const auto reached = static_cast<std::uint64_t>(std::floor((t + timeTolerance(t)) / interval_));
@@ -262,6 +263,7 @@ bool MetricsRecorder::maybeSample(Simulation& sim) {
 }
 
 void MetricsRecorder::finish(Simulation& sim) {
+    if (rows_.empty()) scheduleColumns_ = sim.scheduleColumns();
     if (rows_.empty() || rows_.back().time != sim.time()) rows_.push_back(measureMetrics(sim, h_));
 }
 
@@ -278,6 +280,7 @@ MetricsPeaks MetricsRecorder::peaks() const {
 
 std::string MetricsRecorder::csv() const {
     std::string out = kMetricsHeader;
+    for (const std::string& c : scheduleColumns_) out += "," + c;
     out += '\n';
     out.reserve(out.size() + rows_.size() * 120);
     for (const MetricsRow& r : rows_) {
@@ -298,6 +301,10 @@ std::string MetricsRecorder::csv() const {
         out += std::to_string(r.injured);
         out += ',';
         appendNumber(out, r.crowdPressure);
+        for (std::size_t c = 0; c < scheduleColumns_.size(); ++c) {
+            out += ',';
+            if (c < r.schedule.size() && !std::isnan(r.schedule[c])) appendNumber(out, r.schedule[c], 10);
+        }
         out += '\n';
     }
     return out;
@@ -423,7 +430,7 @@ std::optional<double> evacuationFlow(const std::vector<Evacuation>& evacuations,
     return static_cast<double>(last - first) / (t1 - t0);
 }
 
-std::string summaryJson(const Simulation& sim, const RunInfo& info, const MetricsPeaks& peaks) {
+std::string summaryJson(const Simulation& sim, const RunInfo& info, const MetricsPeaks& peaks, const Verdict* verdict) {
     const ScenarioSpec& spec = sim.spec();
     const auto& evac = sim.evacuations();
     const std::size_t total = sim.totalAgents();
@@ -464,6 +471,7 @@ std::string summaryJson(const Simulation& sim, const RunInfo& info, const Metric
          ", \"max_mean_density\": " + jsonNumber(peaks.maxMeanDensity) +
          ", \"max_contact_accel\": " + jsonNumber(peaks.maxContactAccel) +
          ", \"max_wall_penetration\": " + jsonNumber(peaks.maxWallPenetration) + "},\n";
+    if (verdict != nullptr) j += "  \"verdict\": " + verdictJson(*verdict, 2) + ",\n";
     j += "  \"threads\": " + std::to_string(info.threads) + ",\n";
     j += "  \"wall_time_s\": " + jsonNumber(info.wallTimeSeconds) + "\n";
     j += "}\n";

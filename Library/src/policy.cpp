@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
+#include <string>
 
 namespace ch {
 
@@ -111,8 +113,32 @@ Vec2 PolicyStep::acceleration(const AgentQuery& q, const StepContext& ctx) const
     return (best - q.velocity) / std::max(spec_.relaxationTime, ctx.dt);
 }
 
+double PolicyStep::blendWeight(double value, double from, double to) {
+    if (std::isnan(value) || from == to) return 0.0;
+    return std::clamp((value - from) / (to - from), 0.0, 1.0);
+}
+
+double PolicyStep::weight(std::size_t i) const {
+    if (!spec_.blend) return 1.0;
+    if (blendField_ == nullptr || i >= blendField_->size()) return 0.0;
+    return blendWeight((*blendField_)[i], spec_.blend->from, spec_.blend->to);
+}
+
 Policy::Policy(const PolicySpec& spec) : spec_(spec) {
     for (const StepSpec& s : spec.steps) steps_.emplace_back(s);
+    for (PolicyStep& s : steps_) {
+        if (!s.spec().blend) continue;
+        const BlendSpec& b = *s.spec().blend;
+        Component* source = findComponent(b.component);
+        if (source == nullptr)
+            throw std::runtime_error("policy " + std::to_string(spec.id) + ": the step blend follows component '" +
+                                     b.component + "', which the policy does not have");
+        const std::vector<double>* field = source->field(b.field);
+        if (field == nullptr)
+            throw std::runtime_error("policy " + std::to_string(spec.id) + ": component '" + b.component +
+                                     "' has no per-agent field '" + b.field + "'");
+        s.setBlendSource(field);
+    }
 }
 
 Component* Policy::findComponent(const std::string& name) {

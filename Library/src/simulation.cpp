@@ -6,13 +6,18 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <stdexcept>
 
 namespace ch {
 
 namespace {
+// Below this many agents the cheap O(n) phases run on one thread: waking the team would cost more.
+constexpr std::ptrdiff_t kParallelMin = 4096;
+
 int finePerCoarseOf(const ScenarioSpec& s) {
     const double ratio = s.deltaTime / s.fineStep();
     return std::max(1, static_cast<int>(std::lround(ratio)));
@@ -58,7 +63,11 @@ Simulation::Simulation(const ScenarioSpec& spec)
     std::stable_sort(pending_.begin(), pending_.end(), [&](std::size_t a, std::size_t b) {
         return spec.agents[a].startTime < spec.agents[b].startTime;
     });
+    health_.init(spec_);
+    resolveRamps();
     activatePending();
+    health_.sync(agents_);
+    applySchedule();
 }
 
 void Simulation::setThreads(int n) { omp_set_num_threads(std::max(1, n)); }
@@ -107,9 +116,11 @@ void Simulation::gatherQuery(std::size_t i, double range, AgentQuery& q) const {
     q.maxSpeed = agents_.maxSpeed[i];
     q.maxAcceleration = agents_.maxAcceleration[i];
     q.mass = agents_.mass[i];
-    q.agents.clear();
-    grid_.forEachWithin(q.position, range, [&](int j, const Vec2& d, double d2) {
-        if (j != q.i) q.agents.push_back(NeighbourAgent{j, d, std::sqrt(d2)});
+    std::vector<NeighbourAgent>& out = q.agents;
+    out.clear();
+    const int self = q.i;
+    grid_.forEachWithin(q.position, range, [&out, self](int j, const Vec2& d, double d2) {
+        if (j != self) out.push_back(NeighbourAgent{j, d, std::sqrt(d2)});
     });
     world_.segmentsNear(q.position, range, q.segments);
 }
@@ -132,37 +143,175 @@ Vec2 Simulation::umansContactAcceleration(const AgentQuery& q, double scale) con
     return acc / q.mass;
 }
 
+const char* Simulation::phaseName(Phase p) {
+    static constexpr const char* names[] = {"activation", "grid", "preferred", "prepare",
+                                            "forces", "integration", "removal"};
+    return p < Phase::Count ? names[static_cast<std::size_t>(p)] : "?";
+}
+
+template <class F>
+void Simulation::timed(Phase p, F&& f) {
+    const auto t0 = std::chrono::steady_clock::now();
+    f();
+    phaseSeconds_[static_cast<std::size_t>(p)] +=
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
 void Simulation::stepFine() {
-    activatePending();
+    timed(Phase::Activation, [&] { activatePending(); });
     const std::size_t n = agents_.size();
     const bool coarseBoundary = fineSteps_ % static_cast<std::uint64_t>(finePerCoarse_) == 0;
 
-    grid_.build(agents_.pos, maxRange_, world_.periodic(), spec_.world.width, spec_.world.height);
-
-    // Preferred velocities (part of the frozen state of this step).
-    for (std::size_t i = 0; i < n; ++i)
-        agents_.prefVel[i] = agents_.atGoal(i) ? Vec2(0, 0)
-                                               : Vec2(normalisedOrZero(agents_.goal[i] - agents_.pos[i]) *
-                                                      agents_.prefSpeed[i]);
-
-    const double t = time();
-    auto contextFor = [&](const PolicyStep& s) {
-        const double dt = s.timing() == StepTiming::Coarse ? dtCoarse_ : dtFine_;
-        return StepContext{agents_, world_, grid_, dt, t, fineSteps_, spec_.seed, s.spec().relaxationTime};
-    };
-    for (Policy& p : policies_)
-        for (PolicyStep& s : p.steps())
-            if (s.timing() == StepTiming::Fine || coarseBoundary) s.prepare(contextFor(s));
+    timed(Phase::Grid, [&] {
+        grid_.build(agents_.pos, maxRange_, world_.periodic(), spec_.world.width, spec_.world.height);
+    });
+    timed(Phase::Preferred, [&] {
+        // CrowdHealth: panic update and the speeds in effect, then the preferred velocities, then
+        // herding/erratic turns of the preferred direction (each agent writes only its own slot).
+        health_.beginStep(agents_, grid_, time(), dtFine_);
+        setPreferredVelocities();
+        health_.steerPreferred(agents_, grid_, time(), spec_.seed);
+    });
+    timed(Phase::Prepare, [&] {
+        for (Policy& p : policies_)
+            for (PolicyStep& s : p.steps())
+                if (s.timing() == StepTiming::Fine || coarseBoundary) s.prepare(contextFor(s));
+    });
 
     heldAccel_.resize(n, Vec2(0, 0));
+    fineAccel_.resize(n);
+    umansContact_.resize(n);
+    stopped_.resize(n);
     nextPos_.resize(n);
     nextVel_.resize(n);
     nextView_.resize(n);
     nextContact_.resize(n);
+    timed(Phase::Forces, [&] { evaluateAgents(coarseBoundary); });
+    timed(Phase::Integration, [&] { integrate(); });
 
+    std::swap(agents_.pos, nextPos_);
+    std::swap(agents_.vel, nextVel_);
+    std::swap(agents_.viewDir, nextView_);
+    std::swap(agents_.contactAccel, nextContact_);
+    ++fineSteps_;
+    health_.endStep(agents_, time(), dtFine_);
+    const std::size_t evacuatedBefore = evacuations_.size();
+    timed(Phase::Removal, [&] { removeFinished(); });
+    for (std::size_t e = evacuatedBefore; e < evacuations_.size(); ++e)
+        health_.markExit(evacuations_[e].id, evacuations_[e].time);
+    health_.sync(agents_);
+    applySchedule();
+}
+
+void Simulation::resolveRamps() {
+    for (const RampSpec& r : spec_.ramps) {
+        Ramp ramp;
+        ramp.spec = r;
+        if (r.target == RampSpec::Target::Component) {
+            for (std::size_t p = 0; p < policies_.size(); ++p) {
+                if (r.policyId && policies_[p].id() != *r.policyId) continue;
+                if (r.component == "CrowdHealth") {
+                    ramp.policies.push_back(static_cast<int>(p));
+                    continue;
+                }
+                for (PolicyStep& s : policies_[p].steps())
+                    for (auto& e : s.components())
+                        if (e.name == r.component) ramp.components.push_back(e.component.get());
+            }
+            if (ramp.components.empty() && ramp.policies.empty())
+                throw std::runtime_error(r.loc.file + ":" + std::to_string(r.loc.line) + ": the ramp of " + r.column() +
+                                         " targets no component of any policy");
+        }
+        const std::string name = r.column();
+        const auto it = std::find(scheduleColumns_.begin(), scheduleColumns_.end(), name);
+        ramp.column = static_cast<int>(it - scheduleColumns_.begin());
+        if (it == scheduleColumns_.end()) {
+            ramp.first = true;
+            scheduleColumns_.push_back(name);
+            columnRamp_.push_back(static_cast<int>(ramps_.size()));
+        }
+        ramps_.push_back(std::move(ramp));
+    }
+    lastAgentValue_.assign(scheduleColumns_.size(), std::numeric_limits<double>::quiet_NaN());
+}
+
+void Simulation::applySchedule() {
+    const double t = time();
+    // Half a fine step of tolerance so a start written as a multiple of delta_time is met exactly.
+    const double tol = 0.5 * dtFine_;
+    for (Ramp& ramp : ramps_) {
+        const RampSpec& r = ramp.spec;
+        if (t < r.start - tol && !ramp.first) continue;  // a later ramp of the same target waits for its start
+        const double v = t >= r.end - tol ? r.to : (t <= r.start + tol ? r.from : r.valueAt(t));
+        if (r.target == RampSpec::Target::Agents) {
+            auto apply = [&](std::vector<double>& active, double AgentSpec::*member, std::vector<double>* base) {
+                for (double& x : active) x = v;
+                if (base != nullptr)
+                    for (double& x : *base) x = v;
+                for (std::size_t k = nextPending_; k < pending_.size(); ++k) spec_.agents[pending_[k]].*member = v;
+            };
+            if (r.parameter == "pref_speed") apply(agents_.basePrefSpeed, &AgentSpec::prefSpeed, &agents_.prefSpeed);
+            else if (r.parameter == "max_speed") apply(agents_.baseMaxSpeed, &AgentSpec::maxSpeed, &agents_.maxSpeed);
+            else if (r.parameter == "max_acceleration") apply(agents_.maxAcceleration, &AgentSpec::maxAcceleration, nullptr);
+            lastAgentValue_[static_cast<std::size_t>(ramp.column)] = v;
+        } else {
+            for (Component* c : ramp.components) c->setParameter(r.parameter, v);
+            for (int p : ramp.policies) health_.params(static_cast<std::size_t>(p)).set(r.parameter, v);
+        }
+    }
+}
+
+std::vector<double> Simulation::scheduleValues() const {
+    std::vector<double> out;
+    for (std::size_t c = 0; c < scheduleColumns_.size(); ++c) {
+        const Ramp& ramp = ramps_[static_cast<std::size_t>(columnRamp_[c])];
+        const RampSpec& r = ramp.spec;
+        double v = std::numeric_limits<double>::quiet_NaN();
+        if (r.target == RampSpec::Target::Agents) {
+            const std::vector<double>* column = r.parameter == "pref_speed"   ? &agents_.basePrefSpeed
+                                                : r.parameter == "max_speed" ? &agents_.baseMaxSpeed
+                                                                             : &agents_.maxAcceleration;
+            if (!column->empty()) {
+                double sum = 0;
+                for (double x : *column) sum += x;
+                v = sum / static_cast<double>(column->size());
+                lastAgentValue_[c] = v;
+            } else {
+                v = lastAgentValue_[c];
+            }
+        } else if (!ramp.components.empty()) {
+            v = ramp.components.front()->parameter(r.parameter);
+        } else if (!ramp.policies.empty()) {
+            v = health_.params(static_cast<std::size_t>(ramp.policies.front())).get(r.parameter);
+        }
+        out.push_back(v);
+    }
+    return out;
+}
+
+StepContext Simulation::contextFor(const PolicyStep& s) const {
+    const double dt = s.timing() == StepTiming::Coarse ? dtCoarse_ : dtFine_;
+    return StepContext{agents_, world_, grid_, dt, time(), fineSteps_, spec_.seed, s.spec().relaxationTime};
+}
+
+void Simulation::setPreferredVelocities() {
+    // Part of the frozen state of this step: towards the goal at preferred speed, 0 at the goal.
+    const std::ptrdiff_t n = static_cast<std::ptrdiff_t>(agents_.size());
+#pragma omp parallel for schedule(static) if (n >= kParallelMin)
+    for (std::ptrdiff_t ii = 0; ii < n; ++ii) {
+        const std::size_t i = static_cast<std::size_t>(ii);
+        agents_.prefVel[i] = agents_.atGoal(i) ? Vec2(0, 0)
+                                               : Vec2(normalisedOrZero(agents_.goal[i] - agents_.pos[i]) *
+                                                      agents_.prefSpeed[i]);
+    }
+}
+
+void Simulation::evaluateAgents(bool coarseBoundary) {
+    const std::size_t n = agents_.size();
+    queries_.resize(static_cast<std::size_t>(std::max(1, omp_get_max_threads())));
 #pragma omp parallel
     {
-        AgentQuery q;  // per thread, reused
+        AgentQuery& q = queries_[static_cast<std::size_t>(omp_get_thread_num())];
 #pragma omp for schedule(static)
         for (std::ptrdiff_t ii = 0; ii < static_cast<std::ptrdiff_t>(n); ++ii) {
             const std::size_t i = static_cast<std::size_t>(ii);
@@ -179,45 +328,52 @@ void Simulation::stepFine() {
                     stop = true;
                     continue;
                 }
+                // A blended step (StepSpec::blend) counts with its per-agent weight; weight 0
+                // skips it. A coarse step's weight is taken with its acceleration and held.
+                const double w = s.weight(i);
+                if (!(w > 0)) continue;
                 if (s.timing() == StepTiming::Coarse) {
-                    if (coarseBoundary) heldAccel_[i] += s.acceleration(q, contextFor(s));
+                    if (coarseBoundary) heldAccel_[i] += w * s.acceleration(q, contextFor(s));
                 } else {
-                    fine += s.acceleration(q, contextFor(s));
+                    fine += w * s.acceleration(q, contextFor(s));
                 }
                 for (const auto& e : s.components())
                     if (const std::vector<Vec2>* f = e.component->contactField(); f != nullptr && i < f->size())
-                        reported += e.coeff * (*f)[i];
-            }
-
-            Vec2 v(0, 0);
-            if (!stop) {
-                const Vec2 a = clampLength(heldAccel_[i] + fine, agents_.maxAcceleration[i]);
-                v = clampLength(agents_.vel[i] + a * dtFine_, agents_.maxSpeed[i]);
+                        reported += w * e.coeff * (*f)[i];
             }
             Vec2 contact(0, 0);
             if (policy.contactForceScale() > 0) contact = umansContactAcceleration(q, policy.contactForceScale());
-            v += contact * dtFine_;
-
-            nextVel_[i] = v;
-            nextPos_[i] = world_.wrap(agents_.pos[i] + v * dtFine_);
+            fineAccel_[i] = fine;
+            stopped_[i] = stop ? 1 : 0;
+            umansContact_[i] = contact;
             nextContact_[i] = contact + reported;
-            // UMANS' viewing direction: mostly the velocity, partly the preferred velocity.
-            const Vec2 look = (2.0 * v + agents_.prefVel[i]) / 3.0;
-            nextView_[i] = look.squaredNorm() > 0.01 ? Vec2(look.normalized()) : agents_.viewDir[i];
         }
     }
+}
 
-    std::swap(agents_.pos, nextPos_);
-    std::swap(agents_.vel, nextVel_);
-    std::swap(agents_.viewDir, nextView_);
-    std::swap(agents_.contactAccel, nextContact_);
-    ++fineSteps_;
-    removeFinished();
+void Simulation::integrate() {
+    const std::ptrdiff_t n = static_cast<std::ptrdiff_t>(agents_.size());
+#pragma omp parallel for schedule(static) if (n >= kParallelMin)
+    for (std::ptrdiff_t ii = 0; ii < n; ++ii) {
+        const std::size_t i = static_cast<std::size_t>(ii);
+        Vec2 v(0, 0);
+        if (!stopped_[i]) {
+            const Vec2 a = clampLength(heldAccel_[i] + fineAccel_[i], agents_.maxAcceleration[i]);
+            v = clampLength(agents_.vel[i] + a * dtFine_, agents_.maxSpeed[i]);
+        }
+        v += umansContact_[i] * dtFine_;
+        nextVel_[i] = v;
+        nextPos_[i] = world_.wrap(agents_.pos[i] + v * dtFine_);
+        // UMANS' viewing direction: mostly the velocity, partly the preferred velocity.
+        const Vec2 look = (2.0 * v + agents_.prefVel[i]) / 3.0;
+        nextView_[i] = look.squaredNorm() > 0.01 ? Vec2(look.normalized()) : agents_.viewDir[i];
+    }
 }
 
 void Simulation::removeFinished() {
     const std::size_t n = agents_.size();
-    std::vector<unsigned char> remove(n, 0);
+    std::vector<unsigned char>& remove = remove_;
+    remove.assign(n, 0);
     bool any = false;
     const double t = time();
     for (std::size_t i = 0; i < n; ++i) {
@@ -247,23 +403,36 @@ void Simulation::removeFinished() {
     }
 }
 
-void Simulation::measureDensity(double h) {
-    const std::size_t n = agents_.size();
+std::vector<double> measureDensity(const std::vector<Vec2>& positions, const std::vector<double>& masses,
+                                   const World& world, double h) {
+    const std::size_t n = positions.size();
+    std::vector<double> density(n, 0.0);
     PointGrid grid;
-    grid.build(agents_.pos, h, world_.periodic(), spec_.world.width, spec_.world.height);
-    const PointGrid& walls = world_.particleGrid();
-    const bool hasWalls = !world_.boundaryParticles().empty();
+    grid.build(positions, h, world.periodic(), world.spec().width, world.spec().height);
+    const PointGrid& walls = world.particleGrid();
+    const bool hasWalls = !world.boundaryParticles().empty();
 #pragma omp parallel for schedule(static)
     for (std::ptrdiff_t ii = 0; ii < static_cast<std::ptrdiff_t>(n); ++ii) {
         const std::size_t i = static_cast<std::size_t>(ii);
         double rho = 0;  // includes the agent itself (j = i, r = 0)
-        grid.forEachWithin(agents_.pos[i], h, [&](int j, const Vec2&, double d2) {
-            rho += agents_.mass[j] * kernels::poly6(d2, h);
+        grid.forEachWithin(positions[i], h, [&](int j, const Vec2&, double d2) {
+            rho += masses[static_cast<std::size_t>(j)] * kernels::poly6(d2, h);
         });
         if (hasWalls)
-            walls.forEachWithin(agents_.pos[i], h, [&](int, const Vec2&, double d2) { rho += kernels::poly6(d2, h); });
-        agents_.density[i] = rho;
+            walls.forEachWithin(positions[i], h, [&](int, const Vec2&, double d2) { rho += kernels::poly6(d2, h); });
+        density[i] = rho;
     }
+    return density;
+}
+
+void Simulation::measureDensity(double h) {
+    agents_.density = ch::measureDensity(agents_.pos, agents_.mass, world_, h);
+}
+
+void Simulation::setPrefSpeed(double speed) {
+    for (double& v : agents_.prefSpeed) v = speed;
+    for (double& v : agents_.basePrefSpeed) v = speed;  // the CrowdHealth layer derives prefSpeed from it
+    for (AgentSpec& a : spec_.agents) a.prefSpeed = speed;
 }
 
 double Simulation::maxWallPenetration() const {

@@ -42,6 +42,10 @@ const std::map<std::string, std::string>& homes() {
         {"obstacle", "<Obstacles> or <World>"},
         {"box", "<Obstacles> or <World>"},
         {"point", "<Obstacle>"},
+        {"schedule", "<Simulation>"},
+        {"ramp", "<Schedule>"},
+        {"panicevent", "<Schedule>"},
+        {"crowdhealth", "<Policy>"},
     };
     return m;
 }
@@ -70,11 +74,10 @@ bool is(const XMLElement* el, const char* name) { return equalsIgnoreCase(el->Na
 SourceLoc locOf(const std::string& file, const XMLElement* el) { return SourceLoc{file, el->GetLineNum()}; }
 
 bool reportIfUnsupported(LoadContext& ctx, const std::string& file, const XMLElement* el) {
-    // Planned extensions (DESIGN §3, §5): say so plainly instead of "unknown element".
-    if (is(el, "Schedule") || is(el, "CrowdHealth") || is(el, "Ramp")) {
-        ctx.diags.error(locOf(file, el), std::string("<") + el->Name() + "> is not supported yet");
-        return true;
-    }
+    // Every planned extension of DESIGN §3/§5 is implemented now (<Schedule>, <CrowdHealth>).
+    (void)ctx;
+    (void)file;
+    (void)el;
     return false;
 }
 
@@ -463,9 +466,10 @@ void readOutput(LoadContext& ctx, const std::string& file, const XMLElement* el)
     o.trajectories = r.spec("trajectories").choices[static_cast<std::size_t>(r.value("trajectories"))];
     o.flowFirst = static_cast<int>(r.value("flow_first"));
     o.flowLast = static_cast<int>(r.value("flow_last"));
-    if (o.flowLast < o.flowFirst)
+    // A flow needs two distinct evacuees: (last − first)/(t_last − t_first).
+    if (o.flowLast <= o.flowFirst)
         r.error(r.loc("flow_last"), "Output@flow_last: " + std::to_string(o.flowLast) +
-                                        " is less than flow_first (" + std::to_string(o.flowFirst) + ")");
+                                        " must be greater than flow_first (" + std::to_string(o.flowFirst) + ")");
 }
 
 /// Simulation@seed: a whole number ≥ 0 that may use all 64 bits (so not through a double).
@@ -536,8 +540,11 @@ void readSimulation(LoadContext& ctx, const std::string& file, const XMLElement*
         } else if (is(c, "Obstacles")) {
             // UMANS reads obstacles only inside <World>; accepting them here as well is harmless.
             readBlock(ctx, file, c, Block::Obstacles, false);
+        } else if (is(c, "Schedule")) {
+            readSchedule(ctx, file, c);
         } else {
-            reportUnexpectedElement(ctx, file, c, el->Name(), {"World", "Policies", "Agents", "Obstacles", "Output"});
+            reportUnexpectedElement(ctx, file, c, el->Name(),
+                                    {"World", "Policies", "Agents", "Obstacles", "Output", "Schedule"});
         }
     }
     if (world == nullptr) ctx.diags.error(r.loc(), "Simulation: missing required element <World>");
@@ -620,6 +627,7 @@ std::optional<ScenarioSpec> loadScenario(const std::string& path, Diagnostics& d
 
     assignAgentIds(ctx);
     checkPolicyRefs(ctx);
+    checkSchedule(ctx);
     if (ctx.policyIds.empty() && !ctx.policiesIncomplete)
         diags.error(locOf(path, simulation),
                     "no policy defined: a scenario needs a <Policies> block with at least one <Policy>");

@@ -57,12 +57,12 @@ struct LoadContext {
 bool is(const XMLElement* el, const char* name);
 /// Location of an element.
 SourceLoc locOf(const std::string& file, const XMLElement* el);
-/// Reports a child element that is not allowed where it stands: "not supported yet" for the
-/// planned <Schedule>/<CrowdHealth>, otherwise "unknown element" with a suggestion from `allowed`.
+/// Reports a child element that is not allowed where it stands: "unknown element" with a
+/// suggestion from `allowed`, or where the element belongs.
 /// An empty `parent` means the top level of a file.
 void reportUnexpectedElement(LoadContext& ctx, const std::string& file, const XMLElement* child,
                              const std::string& parent, const std::vector<std::string>& allowed);
-/// True for the planned-but-unimplemented extension elements (and reports them).
+/// True for planned-but-unimplemented extension elements (and reports them); none at present.
 bool reportIfUnsupported(LoadContext& ctx, const std::string& file, const XMLElement* el);
 
 /// Reads the attributes of one element against its parameter table.
@@ -120,5 +120,11 @@ void readAgentGrid(LoadContext& ctx, const std::string& file, const XMLElement* 
 void readSpawnRectangle(LoadContext& ctx, const std::string& file, const XMLElement* el);
 void readObstacle(LoadContext& ctx, const std::string& file, const XMLElement* el);
 void readBox(LoadContext& ctx, const std::string& file, const XMLElement* el);
+/// <CrowdHealth> inside a <Policy> (xml_schedule.cpp).
+void readCrowdHealth(LoadContext& ctx, const std::string& file, const XMLElement* el, PolicySpec& policy);
+/// <Schedule> inside <Simulation>: <Ramp> and <PanicEvent> children (xml_schedule.cpp).
+void readSchedule(LoadContext& ctx, const std::string& file, const XMLElement* el);
+/// Checks that need every policy: ramp targets exist (xml_schedule.cpp).
+void checkSchedule(LoadContext& ctx);
 
 }  // namespace ch::xmlio

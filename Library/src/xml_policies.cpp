@@ -3,6 +3,8 @@
 
 #include "xml_internal.h"
 
+#include <exception>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -73,6 +75,10 @@ const ParamTable& stepTable() {
             ParamSpec::boolean("StopAtGoal", StepSpec{}.stopAtGoal, "agents at their goal stand still"),
             methodParam(),
             relaxationParam(),
+            ParamSpec::real("BlendFrom", "field", 0, -1e300, 1e300,
+                            "with BlendField: field value at which the step's weight is 0"),
+            ParamSpec::real("BlendTo", "field", 1, -1e300, 1e300,
+                            "with BlendField: field value at which the step's weight is 1 (linear, clamped between)"),
         };
         const ParamTable s = samplingParams();
         table.insert(table.end(), s.begin(), s.end());
@@ -145,16 +151,88 @@ int readComponents(LoadContext& ctx, const std::string& file, const XMLElement* 
         if (is(c, "costfunction")) {
             ++elements;
             if (std::optional<ComponentSpec> comp = readComponent(ctx, file, c)) step.components.push_back(*comp);
-        } else if (!is(c, "Step")) {  // steps are handled (or refused) by the caller
+        } else if (!is(c, "Step") && !is(c, "CrowdHealth")) {  // handled (or refused) by the caller
             reportUnexpectedElement(ctx, file, c, el->Name(), allowed);
         }
     }
     return elements;
 }
 
+/// <Step BlendField="Component.field" BlendFrom BlendTo>: the per-agent step weight (BlendSpec).
+/// Whether the component and field exist is checked once the whole policy is read.
+std::optional<BlendSpec> readBlend(ElementReader& r) {
+    const std::optional<std::string> field = r.text("BlendField");
+    if (!field) {
+        for (const char* a : {"BlendFrom", "BlendTo"})
+            if (r.has(a))
+                r.error(r.loc(a), std::string("Step@") + a +
+                                      ": needs Step@BlendField (the per-agent field the weight follows, e.g. "
+                                      "BlendField=\"SPH.density\")");
+        return std::nullopt;
+    }
+    BlendSpec b;
+    b.loc = r.loc("BlendField");
+    const std::size_t dot = field->find('.');
+    if (dot == std::string::npos || dot == 0 || dot + 1 >= field->size() || field->find('.', dot + 1) != std::string::npos) {
+        r.error(b.loc, "Step@BlendField: '" + *field + "' is not of the form Component.field (e.g. SPH.density)");
+        return std::nullopt;
+    }
+    b.component = field->substr(0, dot);
+    b.field = field->substr(dot + 1);
+    const std::optional<double> from = r.required("BlendFrom");
+    const std::optional<double> to = r.required("BlendTo");
+    if (!from || !to) return std::nullopt;
+    b.from = *from;
+    b.to = *to;
+    if (b.from == b.to) {
+        r.error(r.loc("BlendTo"), "Step@BlendTo: must differ from BlendFrom (both " + r.text("BlendTo").value_or("") +
+                                      "): the weight ramps linearly from 0 at BlendFrom to 1 at BlendTo");
+        return std::nullopt;
+    }
+    return b;
+}
+
+/// Every blend must follow a component of the same policy that has the named per-agent field.
+void checkBlends(LoadContext& ctx, const PolicySpec& policy) {
+    for (const StepSpec& step : policy.steps) {
+        if (!step.blend) continue;
+        const BlendSpec& b = *step.blend;
+        const ComponentSpec* source = nullptr;
+        std::vector<std::string> names;
+        for (const StepSpec& s : policy.steps)
+            for (const ComponentSpec& c : s.components) {
+                names.push_back(c.name);
+                if (source == nullptr && c.name == b.component) source = &c;
+            }
+        if (source == nullptr) {
+            std::string msg = "Step@BlendField: policy " + std::to_string(policy.id) + " has no component '" +
+                              b.component + "'";
+            const std::string hint = closestMatch(b.component, names);
+            if (!hint.empty()) msg += " (did you mean '" + hint + "'?)";
+            std::string list;
+            for (std::size_t k = 0; k < names.size(); ++k) list += (k ? ", " : "") + names[k];
+            msg += "; its components: " + (list.empty() ? std::string("(none)") : list);
+            ctx.diags.error(b.loc, msg);
+            continue;
+        }
+        // Ask an instance which per-agent fields it has (components build cheaply).
+        bool known = false;
+        try {
+            const std::unique_ptr<Component> probe = createComponent(source->name, source->params);
+            known = probe->field(b.field) != nullptr;
+        } catch (const std::exception&) {
+            known = false;
+        }
+        if (!known)
+            ctx.diags.error(b.loc, "Step@BlendField: component '" + b.component + "' has no per-agent field '" +
+                                       b.field + "' (docs/policies.md lists the fields of each component)");
+    }
+}
+
 void readStep(LoadContext& ctx, const std::string& file, const XMLElement* el, PolicySpec& policy) {
-    ElementReader r(ctx, file, el, "Step", stepTable());
+    ElementReader r(ctx, file, el, "Step", stepTable(), {"BlendField"});
     StepSpec step;
+    step.blend = readBlend(r);
     step.loc = r.loc();
     step.timing = r.value("DeltaTime") == 1.0 ? StepTiming::Fine : StepTiming::Coarse;
     step.stopAtGoal = r.value("StopAtGoal") != 0.0;
@@ -162,7 +240,7 @@ void readStep(LoadContext& ctx, const std::string& file, const XMLElement* el, P
     step.relaxationTime = r.value("RelaxationTime");
     step.sampling = readSampling(r);
     for (const XMLElement* c = el->FirstChildElement(); c != nullptr; c = c->NextSiblingElement())
-        if (is(c, "Step")) reportUnexpectedElement(ctx, file, c, el->Name(), {"costfunction"});
+        if (is(c, "Step") || is(c, "CrowdHealth")) reportUnexpectedElement(ctx, file, c, el->Name(), {"costfunction"});
     const int elements = readComponents(ctx, file, el, step, {"costfunction"});
     if (elements == 0)
         r.error(r.loc(), "Step: needs at least one <costfunction> (policy " + std::to_string(policy.id) + ")");
@@ -205,8 +283,10 @@ void readPolicy(LoadContext& ctx, const std::string& file, const XMLElement* el)
                                  ": mixes <Step> and <costfunction> children; put every <costfunction> inside a <Step>");
         for (const XMLElement* c = el->FirstChildElement(); c != nullptr; c = c->NextSiblingElement()) {
             if (is(c, "Step")) readStep(ctx, file, c, policy);
-            else if (!is(c, "costfunction")) reportUnexpectedElement(ctx, file, c, el->Name(), {"Step"});
+            else if (is(c, "CrowdHealth")) readCrowdHealth(ctx, file, c, policy);
+            else if (!is(c, "costfunction")) reportUnexpectedElement(ctx, file, c, el->Name(), {"Step", "CrowdHealth"});
         }
+        checkBlends(ctx, policy);
     } else {
         // UMANS 1.x form: the policy is a single coarse step.
         StepSpec step;
@@ -216,7 +296,9 @@ void readPolicy(LoadContext& ctx, const std::string& file, const XMLElement* el)
         if (method) step.method = static_cast<OptimisationMethod>(static_cast<int>(*method));
         step.relaxationTime = r.value("RelaxationTime");
         step.sampling = readSampling(r);
-        const int elements = readComponents(ctx, file, el, step, {"costfunction", "Step"});
+        const int elements = readComponents(ctx, file, el, step, {"costfunction", "Step", "CrowdHealth"});
+        for (const XMLElement* c = el->FirstChildElement(); c != nullptr; c = c->NextSiblingElement())
+            if (is(c, "CrowdHealth")) readCrowdHealth(ctx, file, c, policy);
         if (elements == 0)
             r.error(r.loc(), "Policy " + std::to_string(policy.id) + ": needs at least one <costfunction>");
         policy.steps.push_back(std::move(step));

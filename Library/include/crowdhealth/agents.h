@@ -17,8 +17,10 @@ struct AgentStore {
     std::vector<AgentId> id;
     std::vector<int> policy;              ///< index into Simulation::policies()
     std::vector<double> radius;           ///< m
-    std::vector<double> prefSpeed;        ///< m/s
-    std::vector<double> maxSpeed;         ///< m/s
+    std::vector<double> prefSpeed;        ///< m/s, in effect this step (base, raised by panic, lowered by injury)
+    std::vector<double> maxSpeed;         ///< m/s, in effect this step (base, lowered by injury)
+    std::vector<double> basePrefSpeed;    ///< m/s, the agent's attribute (file or schedule)
+    std::vector<double> baseMaxSpeed;     ///< m/s, the agent's attribute (file or schedule)
     std::vector<double> maxAcceleration;  ///< m/s²
     std::vector<double> mass;             ///< dimensionless mass factor
     std::vector<double> goalRadius;       ///< m

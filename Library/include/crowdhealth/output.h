@@ -35,6 +35,8 @@
 
 namespace ch {
 
+struct Verdict;  // crowdhealth/safety.h
+
 /// A file could not be created, written or renamed.
 class OutputError : public std::runtime_error {
 public:
@@ -104,17 +106,22 @@ struct MetricsRow {
     double meanSpeed = 0, maxSpeed = 0;                 ///< m/s
     double meanContactAccel = 0, maxContactAccel = 0;   ///< m/s²
     double maxWallPenetration = 0;                      ///< m
-    double meanPanic = 0;        ///< 0..1 (CrowdHealth layer: not yet modelled, always 0)
-    std::size_t injured = 0;     ///< (CrowdHealth layer: not yet modelled, always 0)
-    /// Helbing, Johansson & Al-Abideen 2007 "crowd pressure" ρ·Var(v), max over agents (1/s²).
+    double meanPanic = 0;        ///< 0..1, mean over the active agents (CrowdHealth layer)
+    std::size_t injured = 0;     ///< agents injured so far, in the world or not (CrowdHealth layer)
+    /// Helbing, Johansson & Al-Abideen 2007 "crowd pressure" ρ·Var(v) (1/s²): the largest value
+    /// over the cells of crowdField() (crowdhealth/safety.h: Gaussian R = 0.7 m, 1 m cells).
     double crowdPressure = 0;
+    /// Current values of the ramped parameters (Simulation::scheduleColumns()), after the fixed columns.
+    std::vector<double> schedule;
 };
 
 /// Measures the crowd now. Calls sim.measureDensity(h) (which only fills agents().density) and
 /// reads the frozen state; `h` (m) is the smoothing length of the density and pressure kernels.
 MetricsRow measureMetrics(Simulation& sim, double h = 1.0);
 
-/// Per-agent crowd pressure (1/s²) after Helbing et al. 2007: ρ_i · Σ_j w_ij |v_j − v̄_i|² / Σ_j w_ij
+/// Per-agent crowd pressure (1/s²) after Helbing et al. 2007 (kept for callers; metrics.csv uses
+/// the grid version of crowdhealth/safety.h, which follows the paper's definition — Gaussian
+/// local averages at fixed points, persons/m² without wall particles — more closely): ρ_i · Σ_j w_ij |v_j − v̄_i|² / Σ_j w_ij
 /// with Poly6 weights w_ij = W(|x_j − x_i|, h) over the agents within h (i included) and v̄_i the
 /// weighted mean velocity. `density` holds ρ_i per agent (same index as `agents`).
 std::vector<double> crowdPressure(const AgentStore& agents, const std::vector<double>& density,
@@ -154,6 +161,7 @@ public:
 
 private:
     double interval_, h_;
+    std::vector<std::string> scheduleColumns_;  ///< taken from the simulation at the first sample
     std::uint64_t nextIndex_ = 0;  ///< the next sample is due at nextIndex_·interval_
     std::vector<MetricsRow> rows_;
 };
@@ -230,7 +238,9 @@ std::optional<double> evacuationFlow(const std::vector<Evacuation>& evacuations,
 
 /// summary.json: scenario, seed, time steps, end/simulated time, interrupted, agent counts,
 /// evacuation time, flow {first, last, persons_per_second}, peaks, wall time.
-std::string summaryJson(const Simulation& sim, const RunInfo& info, const MetricsPeaks& peaks);
+/// With `verdict`, a "verdict" member {"level", "reasons": [...]} is added (crowdhealth/safety.h).
+std::string summaryJson(const Simulation& sim, const RunInfo& info, const MetricsPeaks& peaks,
+                        const Verdict* verdict = nullptr);
 
 /// The evacuation time of summary.json: when the last agent was removed at its goal, once nobody
 /// is left (nullopt while agents remain or when nobody was evacuated).

@@ -41,14 +41,27 @@ public:
     /// The settings UMANS uses to approximate a global optimum by dense sampling.
     static SamplingSpec denseSampling();
 
+    /// Weight of this step for agent i (index = AgentStore index): 1 without a blend, otherwise
+    /// blendWeight(f_i, from, to) with f the blend field (StepSpec::blend). An agent the field
+    /// does not cover yet, or a NaN value, gets weight 0.
+    double weight(std::size_t i) const;
+    /// clamp((value − from)/(to − from), 0, 1); from ≠ to.
+    static double blendWeight(double value, double from, double to);
+    /// Connects the blend to the per-agent field it follows (done by Policy).
+    void setBlendSource(const std::vector<double>* field) { blendField_ = field; }
+
 private:
     StepSpec spec_;
     std::vector<Entry> components_;
     double range_ = 0;
+    const std::vector<double>* blendField_ = nullptr;  ///< owned by a component of the same policy
 };
 
 class Policy {
 public:
+    /// Builds the steps and connects every step's blend to its field. Throws std::runtime_error
+    /// when a blend names a component or field the policy does not have (the loader reports
+    /// these first, with file and line).
     explicit Policy(const PolicySpec& spec);
     int id() const { return spec_.id; }
     const PolicySpec& spec() const { return spec_; }

@@ -62,6 +62,20 @@ struct ComponentSpec {
     SourceLoc loc;
 };
 
+/// A per-agent weight of a whole step that follows a per-agent field of a component of the same
+/// policy (CrowdHealth's extension, <Step BlendField BlendFrom BlendTo>): the step's acceleration
+/// and reported contact are multiplied by
+///     w_i = clamp((f_i − from) / (to − from), 0, 1),
+/// 0 at `from`, 1 at `to` (from > to gives a weight that falls as f rises). Two steps with swapped
+/// from/to blend linearly between two step lists, e.g. van Toll et al. 2021's density blend
+/// κ = clamp((ρ_i − 2)/2, 0, 1): navigation step from=4 to=2 (weight 1 − κ), SPH step from=2 to=4 (κ).
+struct BlendSpec {
+    std::string component;  ///< registered name; the policy's first component with that name
+    std::string field;      ///< its per-agent field (Component::field), e.g. "density"
+    double from = 0, to = 1;  ///< in the field's unit; from ≠ to
+    SourceLoc loc;
+};
+
 /// A policy step: an optimisation method over a weighted list of components, on a time step.
 struct StepSpec {
     StepTiming timing = StepTiming::Coarse;
@@ -70,6 +84,14 @@ struct StepSpec {
     bool stopAtGoal = true;     ///< agents that reached their goal stand still (UMANS behaviour)
     SamplingSpec sampling;
     std::vector<ComponentSpec> components;
+    std::optional<BlendSpec> blend;  ///< absent: weight 1 for every agent
+    SourceLoc loc;
+};
+
+/// The CrowdHealth layer of a policy (<CrowdHealth> inside <Policy>, docs/crowd-health.md): its
+/// values for every parameter of crowdHealthTable() (crowdhealth/health.h), defaults filled in.
+struct CrowdHealthSpec {
+    ParamSet params;
     SourceLoc loc;
 };
 
@@ -80,6 +102,42 @@ struct PolicySpec {
     /// UMANS' post-clamp contact force stiffness (N/m per unit mass, applied after the
     /// acceleration clamp); 0 disables it.
     double contactForceScale = 62.5;
+    /// Absent: crush and panic are still measured with the layer's defaults, with no effect on
+    /// motion (docs/crowd-health.md).
+    std::optional<CrowdHealthSpec> health;
+    SourceLoc loc;
+};
+
+/// <Ramp> in <Schedule>: moves one parameter linearly from `from` (at `start`) to `to` (at `end`)
+/// and holds `to` afterwards. The first ramp of a parameter (in file order) also holds `from`
+/// from t = 0 until its start, so the file's own value is replaced for the whole run; a later
+/// ramp of the same parameter acts only from its own start (chains: 3→7, then 7→3).
+struct RampSpec {
+    enum class Target { Component, Agents };
+    Target target = Target::Component;
+    std::optional<int> policyId;  ///< Component: absent = every policy that has the component
+    std::string component;        ///< registered component name, or "CrowdHealth" (the layer)
+    std::string parameter;        ///< a Real parameter of its table; Agents: pref_speed, max_speed, max_acceleration
+    double from = 0, to = 0;      ///< in the parameter's unit
+    double start = 0, end = 0;    ///< s, start <= end
+    SourceLoc loc;
+    /// Column name in metrics.csv: "<component>.<parameter>" or "agents.<parameter>".
+    std::string column() const { return (target == Target::Agents ? std::string("agents") : component) + "." + parameter; }
+    /// The value at time t (s): from at start, to at end and after, linear between (t >= start).
+    double valueAt(double t) const {
+        if (t >= end) return to;
+        if (t <= start) return from;
+        return from + (to - from) * ((t - start) / (end - start));
+    }
+};
+
+/// <PanicEvent time x y radius strength/> in <Schedule>: at `time` every agent within `radius` of
+/// (x, y) gets panic = max(panic, strength).
+struct PanicEventSpec {
+    double time = 0;            ///< s
+    Vec2 position{0, 0};        ///< m
+    double radius = 1;          ///< m
+    double strength = 1;        ///< 0..1
     SourceLoc loc;
 };
 
@@ -118,6 +176,8 @@ struct ScenarioSpec {
     std::vector<ObstacleSpec> obstacles;
     std::vector<PolicySpec> policies;
     std::vector<AgentSpec> agents;
+    std::vector<RampSpec> ramps;             ///< <Schedule><Ramp>, in file order
+    std::vector<PanicEventSpec> panicEvents; ///< <Schedule><PanicEvent>, in file order
     OutputSpec output;
 
     double fineStep() const { return deltaTimeFine > 0 ? deltaTimeFine : deltaTime; }

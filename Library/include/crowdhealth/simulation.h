@@ -5,6 +5,7 @@
 //   2. preferred velocities are set (towards the goal at preferred speed, zero at the goal);
 //   3. at the first fine step of a coarse step every *coarse* policy step is evaluated and its
 //      acceleration held for the whole coarse step; every *fine* policy step is evaluated now;
+//      a step with a blend (StepSpec::blend) counts with its per-agent weight (PolicyStep::weight);
 //   4. integration (forward Euler): a = clamp(a_coarse + a_fine, a_max); v ← clamp(v + a·dt, s_max);
 //      then UMANS' post-clamp contact: v ← v + dt·F_contact/m; x ← x + v·dt; toric wrap;
 //      AgentStore::contactAccel = UMANS' contact + Σ coeff·contactField() of the components the
@@ -19,13 +20,23 @@
 #include "crowdhealth/grid.h"
 #include "crowdhealth/policy.h"
 #include "crowdhealth/scenario.h"
+#include "crowdhealth/health.h"
 #include "crowdhealth/world.h"
 
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
 
 namespace ch {
+
+/// SPH density (Poly6 kernel, smoothing length h in m) at each of `positions`: Σ_j m_j W(r_ij)
+/// over the given agents (j = i included) plus the world's static boundary particles (mass 1
+/// each), minimum image on a torus. `masses` has one entry per position. Returns one value per
+/// position (1/m² × mass). Simulation::measureDensity uses it; renderers use it to recompute the
+/// density of recorded trajectories.
+std::vector<double> measureDensity(const std::vector<Vec2>& positions, const std::vector<double>& masses,
+                                   const World& world, double h = 1.0);
 
 struct Evacuation {
     AgentId id;
@@ -34,6 +45,11 @@ struct Evacuation {
 
 class Simulation {
 public:
+    /// The named phases of a fine step, in order (see the list above), for profiling.
+    enum class Phase { Activation, Grid, Preferred, Prepare, Forces, Integration, Removal, Count };
+    static constexpr std::size_t kPhases = static_cast<std::size_t>(Phase::Count);
+    static const char* phaseName(Phase p);
+
     /// Builds everything from a validated spec. Throws std::runtime_error (e.g. RegistryError)
     /// when the spec names something that does not exist.
     explicit Simulation(const ScenarioSpec& spec);
@@ -73,11 +89,38 @@ public:
     /// counting other agents, the agent itself and static boundary particles (mass 1 each).
     /// A measurement for metrics; it does not change the dynamics.
     void measureDensity(double h = 1.0);
+    /// Sets the preferred speed (m/s) of every active agent and of every agent still to come
+    /// (interactive tools; schedules use their own path). Takes effect at the next step.
+    void setPrefSpeed(double speed);
     /// Largest depth (m) by which any agent's disc overlaps a wall (0 if none).
     double maxWallPenetration() const;
 
+    /// Wall-clock seconds spent in each phase since construction or the last reset (steady_clock,
+    /// read around whole phases only; profiling, never part of the physics).
+    const std::array<double, kPhases>& phaseSeconds() const { return phaseSeconds_; }
+    void resetPhaseTimes() { phaseSeconds_.fill(0.0); }
+
+    /// The CrowdHealth layer: per-agent crush and panic records (crowdhealth/health.h).
+    const HealthLayer& health() const { return health_; }
+    /// Names of the metrics.csv columns of the ramped parameters (RampSpec::column), one per
+    /// distinct target, in order of first appearance in the schedule.
+    const std::vector<std::string>& scheduleColumns() const { return scheduleColumns_; }
+    /// Current value of each scheduleColumns() parameter (agents: mean over the active agents,
+    /// or the last value while nobody is in the world).
+    std::vector<double> scheduleValues() const;
+
 private:
     void stepFine();
+    /// Runs f() and adds its wall time to phase p.
+    template <class F>
+    void timed(Phase p, F&& f);
+    StepContext contextFor(const PolicyStep& s) const;
+    void setPreferredVelocities();
+    /// Phase 3: every agent's policy steps on its neighbourhood (fills fineAccel_, stopped_,
+    /// umansContact_, nextContact_ and, at a coarse boundary, heldAccel_).
+    void evaluateAgents(bool coarseBoundary);
+    /// Phase 4: forward Euler from the accelerations of phase 3 into the next-state buffers.
+    void integrate();
     void activatePending();
     void gatherQuery(std::size_t i, double range, AgentQuery& q) const;
     void removeFinished();
@@ -105,7 +148,31 @@ private:
 
     // per-step buffers (index = agent)
     std::vector<Vec2> heldAccel_;  ///< coarse-step acceleration, held over the coarse step
+    std::vector<Vec2> fineAccel_;     ///< Σ fine policy steps of this step (m/s²)
+    std::vector<Vec2> umansContact_;  ///< UMANS' post-clamp contact acceleration (m/s²)
+    std::vector<unsigned char> stopped_;  ///< 1: at its goal with a stopAtGoal step (stands still)
+    std::vector<unsigned char> remove_;   ///< removal marks (reused)
     std::vector<Vec2> nextPos_, nextVel_, nextView_, nextContact_;
+    std::vector<AgentQuery> queries_;  ///< one per OpenMP thread, reused across steps
+    std::array<double, kPhases> phaseSeconds_{};
+
+    // CrowdHealth layer and schedule (<Schedule><Ramp>)
+    HealthLayer health_;
+    struct Ramp {
+        RampSpec spec;
+        std::vector<Component*> components;  ///< Component target: every matching instance
+        std::vector<int> policies;           ///< CrowdHealth target: policy indices
+        int column = 0;                      ///< index into scheduleColumns_
+        bool first = false;                  ///< the first ramp of its target: holds `from` before its start
+    };
+    std::vector<Ramp> ramps_;
+    std::vector<std::string> scheduleColumns_;
+    std::vector<int> columnRamp_;            ///< per column: a ramp that targets it
+    mutable std::vector<double> lastAgentValue_;  ///< per column (agents targets)
+    /// Sets every ramped parameter to its value at time() (RampSpec: the first ramp of a target
+    /// holds `from` before its start, later ones wait for theirs).
+    void applySchedule();
+    void resolveRamps();
 };
 
 }  // namespace ch

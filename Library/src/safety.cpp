@@ -1,0 +1,328 @@
+// CrowdHealth — crowd measures on a grid, heat map and safety verdict (see safety.h).
+#include "crowdhealth/safety.h"
+
+#include "crowdhealth/grid.h"
+#include "crowdhealth/health.h"
+#include "crowdhealth/output.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+
+namespace ch {
+
+namespace {
+
+int cellIndex(double v, double c) { return static_cast<int>(std::floor(v / c)); }
+
+std::string fmt(double v, int digits = 3) { return formatNumber(v, digits); }
+}  // namespace
+
+double CrowdField::maxDensity() const {
+    double m = 0;
+    for (double d : density) m = std::max(m, d);
+    return m;
+}
+
+double CrowdField::maxPressure() const {
+    double m = 0;
+    for (double p : pressure) m = std::max(m, p);
+    return m;
+}
+
+CrowdField crowdField(const AgentStore& agents, double cellSize, double R) {
+    CrowdField f;
+    f.cellSize = cellSize;
+    const std::size_t n = agents.size();
+    if (n == 0) return f;
+    double xmin = agents.pos[0].x(), xmax = xmin, ymin = agents.pos[0].y(), ymax = ymin;
+    for (const Vec2& p : agents.pos) {
+        xmin = std::min(xmin, p.x());
+        xmax = std::max(xmax, p.x());
+        ymin = std::min(ymin, p.y());
+        ymax = std::max(ymax, p.y());
+    }
+    f.ix0 = cellIndex(xmin, cellSize) - 1;
+    f.iy0 = cellIndex(ymin, cellSize) - 1;
+    f.nx = cellIndex(xmax, cellSize) + 2 - f.ix0;
+    f.ny = cellIndex(ymax, cellSize) + 2 - f.iy0;
+    const std::size_t cells = static_cast<std::size_t>(f.nx) * static_cast<std::size_t>(f.ny);
+    f.density.assign(cells, 0.0);
+    f.pressure.assign(cells, 0.0);
+    f.people.assign(cells, 0);
+    for (const Vec2& p : agents.pos) {
+        const int ix = cellIndex(p.x(), cellSize) - f.ix0, iy = cellIndex(p.y(), cellSize) - f.iy0;
+        ++f.people[static_cast<std::size_t>(iy) * static_cast<std::size_t>(f.nx) + static_cast<std::size_t>(ix)];
+    }
+    const double reach = 3.0 * R;  // the weight is below e^-9 beyond
+    PointGrid grid;
+    grid.build(agents.pos, reach);
+    const double norm = 1.0 / (kPi * R * R), invR2 = 1.0 / (R * R);
+    const long count = static_cast<long>(cells);
+#pragma omp parallel for schedule(static) if (count >= 4096)
+    for (long k = 0; k < count; ++k) {
+        const int iy = static_cast<int>(k / f.nx), ix = static_cast<int>(k % f.nx);
+        const Vec2 c = f.centre(ix + f.ix0, iy + f.iy0);
+        double sw = 0;
+        Vec2 swv(0, 0);
+        grid.forEachWithin(c, reach, [&](int j, const Vec2&, double d2) {
+            const double w = std::exp(-d2 * invR2);
+            sw += w;
+            swv += w * agents.vel[static_cast<std::size_t>(j)];
+        });
+        if (!(sw > 0)) continue;
+        const Vec2 mean = swv / sw;
+        double dev = 0;
+        grid.forEachWithin(c, reach, [&](int j, const Vec2&, double d2) {
+            dev += std::exp(-d2 * invR2) * (agents.vel[static_cast<std::size_t>(j)] - mean).squaredNorm();
+        });
+        const double rho = norm * sw;
+        f.density[static_cast<std::size_t>(k)] = rho;
+        f.pressure[static_cast<std::size_t>(k)] = rho * dev / sw;
+    }
+    return f;
+}
+
+int verdictRank(const std::string& level) {
+    if (level == "critical") return 3;
+    if (level == "dangerous") return 2;
+    if (level == "caution") return 1;
+    return 0;
+}
+
+void SafetyRecorder::record(const Simulation& sim) {
+    const double t = sim.time();
+    const double dt = lastTime_ == lastTime_ ? t - lastTime_ : 0.0;
+    if (lastTime_ == lastTime_ && !(dt > 0)) return;  // already recorded at this time
+    lastTime_ = t;
+    const AgentStore& a = sim.agents();
+    const CrowdField f = crowdField(a, t_.cellSize, t_.gaussianRadius);
+    const double levels[3] = {t_.densityCaution, t_.densityDangerous, t_.densityCritical};
+    bool held[kConditions] = {false, false, false, false, false};
+    std::size_t people[kConditions] = {0, 0, 0, 0, 0};
+    for (int iy = 0; iy < f.ny; ++iy)
+        for (int ix = 0; ix < f.nx; ++ix) {
+            const std::size_t k = static_cast<std::size_t>(iy) * static_cast<std::size_t>(f.nx) + static_cast<std::size_t>(ix);
+            Cell& cell = cells_[{iy + f.iy0, ix + f.ix0}];
+            cell.maxDensity = std::max(cell.maxDensity, f.density[k]);
+            for (int l = 0; l < 3; ++l)
+                if (f.density[k] > levels[l]) {
+                    cell.seconds[l] += dt;
+                    held[l] = true;
+                    people[l] += static_cast<std::size_t>(f.people[k]);
+                }
+            if (f.pressure[k] > t_.crowdPressureCritical) {
+                cell.seconds[Pressure] += dt;
+                held[Pressure] = true;
+                people[Pressure] += static_cast<std::size_t>(f.people[k]);
+            }
+        }
+    // Contact per cell, and crush from each agent's last force against its own threshold.
+    const HealthLayer& h = sim.health();
+    std::map<std::pair<int, int>, bool> crushCells;
+    for (std::size_t i = 0; i < a.size(); ++i) {
+        const std::pair<int, int> key{cellIndex(a.pos[i].y(), t_.cellSize), cellIndex(a.pos[i].x(), t_.cellSize)};
+        Cell& cell = cells_[key];
+        cell.maxContact = std::max(cell.maxContact, a.contactAccel[i].norm());
+        const HealthRecord& r = h.recordOf(a, i);
+        if (r.lastForce > h.params(r.policy).crushThreshold) {
+            crushCells[key] = true;
+            held[Crush] = true;
+            ++people[Crush];
+        }
+    }
+    for (const auto& [key, on] : crushCells) cells_[key].seconds[Crush] += dt;
+    for (int c = 0; c < kConditions; ++c) {
+        if (!held[c]) continue;
+        Timeline& tl = timeline_[c];
+        if (!(tl.firstTime == tl.firstTime)) tl.firstTime = t;
+        tl.seconds += dt;
+        tl.maxPeople = std::max(tl.maxPeople, people[c]);
+    }
+}
+
+std::string SafetyRecorder::heatmapCsv() const {
+    std::string out = "x,y,max_density,max_contact_accel,seconds_above_density_threshold,seconds_above_crush_threshold\n";
+    if (cells_.empty()) return out;
+    int ix0 = cells_.begin()->first.second, ix1 = ix0;
+    const int iy0 = cells_.begin()->first.first, iy1 = cells_.rbegin()->first.first;
+    for (const auto& [key, cell] : cells_) {
+        ix0 = std::min(ix0, key.second);
+        ix1 = std::max(ix1, key.second);
+    }
+    const Cell empty;
+    for (int iy = iy0; iy <= iy1; ++iy)
+        for (int ix = ix0; ix <= ix1; ++ix) {
+            const auto it = cells_.find({iy, ix});
+            const Cell& c = it == cells_.end() ? empty : it->second;
+            appendNumber(out, (ix + 0.5) * t_.cellSize);
+            out += ',';
+            appendNumber(out, (iy + 0.5) * t_.cellSize);
+            for (const double v : {c.maxDensity, c.maxContact, c.seconds[DensityDangerous], c.seconds[Crush]}) {
+                out += ',';
+                appendNumber(out, v);
+            }
+            out += '\n';
+        }
+    return out;
+}
+
+VerdictReason SafetyRecorder::cellReason(Condition c, const std::string& level, const std::string& measure,
+                                         double threshold, const std::string& unit, const std::string& what) const {
+    VerdictReason r;
+    r.level = level;
+    r.measure = measure;
+    r.threshold = threshold;
+    r.unit = unit;
+    r.firstTime = timeline_[c].firstTime;
+    r.duration = timeline_[c].seconds;
+    r.people = timeline_[c].maxPeople;
+    double sw = 0, sx = 0, sy = 0;
+    for (const auto& [key, cell] : cells_) {
+        const double s = cell.seconds[c];
+        if (!(s > 0)) continue;
+        const double x = (key.second + 0.5) * t_.cellSize, y = (key.first + 0.5) * t_.cellSize;
+        const double hx = 0.5 * t_.cellSize;
+        if (!r.hasWhere) {
+            r.xmin = x - hx; r.xmax = x + hx; r.ymin = y - hx; r.ymax = y + hx;
+            r.hasWhere = true;
+        }
+        r.xmin = std::min(r.xmin, x - hx); r.xmax = std::max(r.xmax, x + hx);
+        r.ymin = std::min(r.ymin, y - hx); r.ymax = std::max(r.ymax, y + hx);
+        sw += s; sx += s * x; sy += s * y;
+    }
+    if (sw > 0) { r.x = sx / sw; r.y = sy / sw; }
+    r.text = what + " above " + fmt(threshold) + " " + unit + " for " + fmt(r.duration) + " s from t = " +
+             fmt(r.firstTime) + " s, up to " + std::to_string(r.people) + " people at once, around (" + fmt(r.x) +
+             ", " + fmt(r.y) + ") m";
+    return r;
+}
+
+Verdict SafetyRecorder::verdict(const Simulation& sim) const {
+    Verdict v;
+    // Density: the highest level that held at least minDuration.
+    const struct { Condition c; const char* level; double threshold; const char* source; } density[] = {
+        {DensityCritical, "critical", t_.densityCritical, "local density (Still: crowd collapse)"},
+        {DensityDangerous, "dangerous", t_.densityDangerous, "local density (Still: moving crowd at risk)"},
+        {DensityCaution, "caution", t_.densityCaution, "local density (Fruin: level of service F)"},
+    };
+    for (const auto& d : density)
+        if (timeline_[d.c].seconds >= t_.minDuration) {
+            v.reasons.push_back(cellReason(d.c, d.level, "density", d.threshold, "persons/m2", d.source));
+            break;
+        }
+    if (timeline_[Pressure].seconds >= t_.minDuration)
+        v.reasons.push_back(cellReason(Pressure, "dangerous", "crowd_pressure", t_.crowdPressureCritical, "1/s2",
+                                       "crowd pressure (Helbing et al. 2007: crowd turbulence)"));
+
+    // Crush, from the per-agent records.
+    const HealthLayer& h = sim.health();
+    const CrushSummary& cs = h.crush();
+    std::size_t above = 0, halfway = 0, injured = 0;
+    double firstInjury = std::numeric_limits<double>::quiet_NaN(), longestInjured = 0, longestHalf = 0;
+    double threshold = 0, dose = 0;
+    for (const HealthRecord& r : h.records()) {
+        if (!r.seen) continue;
+        const HealthParams& p = h.params(r.policy);
+        threshold = std::max(threshold, p.crushThreshold);
+        dose = std::max(dose, p.injuryDose);
+        if (r.timeAboveThreshold > 0) ++above;
+        if (r.dose >= t_.doseDangerousFraction * p.injuryDose) {
+            ++halfway;
+            longestHalf = std::max(longestHalf, r.timeAboveThreshold);
+        }
+        if (r.injured()) {
+            ++injured;
+            longestInjured = std::max(longestInjured, r.timeAboveThreshold);
+            if (!(firstInjury <= r.injuredAt)) firstInjury = r.injuredAt;
+        }
+    }
+    auto crushWhere = [&](VerdictReason& r) {
+        if (cs.samples == 0) return;
+        r.hasWhere = true;
+        r.x = cs.positionSum.x() / static_cast<double>(cs.samples);
+        r.y = cs.positionSum.y() / static_cast<double>(cs.samples);
+        r.xmin = cs.xmin; r.xmax = cs.xmax; r.ymin = cs.ymin; r.ymax = cs.ymax;
+    };
+    auto where = [](const VerdictReason& r) {
+        return r.hasWhere ? ", around (" + fmt(r.x) + ", " + fmt(r.y) + ") m" : std::string();
+    };
+    if (injured > 0) {
+        VerdictReason r;
+        r.level = "critical";
+        r.measure = "injured";
+        r.threshold = dose;
+        r.unit = "N s";
+        r.firstTime = firstInjury;
+        r.duration = longestInjured;
+        r.people = injured;
+        crushWhere(r);
+        r.text = std::to_string(injured) + " injured (crush dose above " + fmt(dose) + " N s) from t = " +
+                 fmt(firstInjury) + " s" + where(r);
+        v.reasons.push_back(r);
+    } else if (halfway > 0) {
+        VerdictReason r;
+        r.level = "dangerous";
+        r.measure = "crush_dose";
+        r.threshold = t_.doseDangerousFraction * dose;
+        r.unit = "N s";
+        r.firstTime = cs.firstTime;
+        r.duration = longestHalf;
+        r.people = halfway;
+        crushWhere(r);
+        r.text = std::to_string(halfway) + " people received a crush dose above " + fmt(r.threshold) +
+                 " N s (half the injury dose)" + where(r);
+        v.reasons.push_back(r);
+    } else if (above > 0) {
+        VerdictReason r;
+        r.level = "caution";
+        r.measure = "crush_force";
+        r.threshold = threshold;
+        r.unit = "N";
+        r.firstTime = cs.firstTime;
+        r.duration = cs.seconds;
+        r.people = above;
+        crushWhere(r);
+        r.text = "contact force above " + fmt(threshold) + " N for " + fmt(cs.seconds) + " s from t = " +
+                 fmt(cs.firstTime) + " s, " + std::to_string(above) + " people" + where(r);
+        v.reasons.push_back(r);
+    }
+    std::stable_sort(v.reasons.begin(), v.reasons.end(), [](const VerdictReason& a, const VerdictReason& b) {
+        return verdictRank(a.level) > verdictRank(b.level);
+    });
+    if (!v.reasons.empty()) v.level = v.reasons.front().level;
+    return v;
+}
+
+std::string verdictJson(const Verdict& v, int indent) {
+    const std::string pad(static_cast<std::size_t>(indent), ' ');
+    std::string j = "{\"level\": " + jsonString(v.level) + ", \"reasons\": [";
+    for (std::size_t k = 0; k < v.reasons.size(); ++k) {
+        const VerdictReason& r = v.reasons[k];
+        j += k ? ",\n" : "\n";
+        j += pad + "  {\"level\": " + jsonString(r.level) + ", \"measure\": " + jsonString(r.measure) +
+             ", \"threshold\": " + jsonNumber(r.threshold) + ", \"unit\": " + jsonString(r.unit) +
+             ", \"first_time\": " + jsonNumber(r.firstTime) + ", \"duration\": " + jsonNumber(r.duration) +
+             ", \"people\": " + std::to_string(r.people) + ", \"where\": ";
+        if (r.hasWhere)
+            j += "{\"x\": " + jsonNumber(r.x, 6) + ", \"y\": " + jsonNumber(r.y, 6) + ", \"xmin\": " +
+                 jsonNumber(r.xmin, 6) + ", \"xmax\": " + jsonNumber(r.xmax, 6) + ", \"ymin\": " +
+                 jsonNumber(r.ymin, 6) + ", \"ymax\": " + jsonNumber(r.ymax, 6) + "}";
+        else
+            j += "null";
+        j += ", \"text\": " + jsonString(r.text) + "}";
+    }
+    j += v.reasons.empty() ? "]}" : "\n" + pad + "]}";
+    return j;
+}
+
+std::string verdictText(const Verdict& v) {
+    std::string upper = v.level;
+    for (char& c : upper) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+    std::string out = "safety verdict: " + upper + "\n";
+    if (v.reasons.empty()) out += "  no threshold was reached\n";
+    for (const VerdictReason& r : v.reasons) out += "  [" + r.level + "] " + r.text + "\n";
+    return out;
+}
+
+}  // namespace ch

@@ -1,0 +1,305 @@
+// CrowdHealth tests — the CrowdHealth layer and schedules (Library/include/crowdhealth/health.h,
+// scenario.h RampSpec): ramps hit their exact values, panic raises the preferred speed, contagion
+// spreads along a line at the configured rate, the dose grows only above the threshold, injury
+// lowers the speeds.
+#define BOOST_TEST_MODULE health_layer
+#include <boost/test/unit_test.hpp>
+
+#include "test_support.h"
+
+#include "crowdhealth/health.h"
+#include "crowdhealth/output.h"
+
+#include <cmath>
+
+using namespace ch;
+using namespace ch::test;
+
+namespace {
+
+CrowdHealthSpec layer(const std::map<std::string, double>& values) {
+    CrowdHealthSpec h;
+    h.params = ParamSet(crowdHealthTable());
+    for (const auto& [k, v] : values) h.params.set(k, v);
+    return h;
+}
+
+/// One fine step per coarse step (dt = 0.02 s), goal force (+ contact forces when asked).
+ScenarioSpec fineScenario(std::vector<AgentSpec> agents, bool contact, std::optional<CrowdHealthSpec> health,
+                          double endTime = 10) {
+    std::vector<ComponentSpec> comps = {component("GoalReachingForce", {{"range", 0.0}})};
+    if (contact) comps.push_back(component("ContactForces", {{"range", 1.0}}));
+    PolicySpec p = policy(0, OptimisationMethod::Gradient, comps, 0.5, {}, StepTiming::Fine, 0.0);
+    p.health = std::move(health);
+    ScenarioSpec s = scenario(std::move(agents), {p}, 0.02, endTime);
+    s.deltaTimeFine = 0.02;
+    return s;
+}
+
+const HealthRecord& recordOfId(const Simulation& sim, AgentId id) {
+    for (const HealthRecord& r : sim.health().records())
+        if (r.id == id) return r;
+    throw std::runtime_error("no record");
+}
+
+}  // namespace
+
+BOOST_AUTO_TEST_CASE(ramp_is_exact_at_both_ends_and_linear_between) {
+    ScenarioSpec s = fineScenario({agent(0, {0, 0}, {100, 0})}, false, std::nullopt, 5);
+    s.deltaTime = 0.1;  // 5 fine steps per coarse step
+    RampSpec r;
+    r.component = "GoalReachingForce";
+    r.parameter = "strength";
+    r.policyId = 0;
+    r.from = 0.5;
+    r.to = 2.5;
+    r.start = 1.0;
+    r.end = 3.0;
+    s.ramps.push_back(r);
+    RampSpec speed;
+    speed.target = RampSpec::Target::Agents;
+    speed.parameter = "pref_speed";
+    speed.from = 1.0;
+    speed.to = 1.8;
+    speed.start = 2.0;
+    speed.end = 4.0;
+    s.ramps.push_back(speed);
+
+    Simulation sim(s);
+    BOOST_REQUIRE(sim.scheduleColumns().size() == 2u);
+    BOOST_TEST(sim.scheduleColumns()[0] == "GoalReachingForce.strength");
+    BOOST_TEST(sim.scheduleColumns()[1] == "agents.pref_speed");
+    Component* goal = sim.policies()[0].findComponent("GoalReachingForce");
+    BOOST_REQUIRE(goal != nullptr);
+    BOOST_TEST(goal->parameter("strength") == 0.5);  // the first ramp holds `from` before its start
+    bool sawStart = false, sawEnd = false, sawMiddle = false;
+    while (!sim.finished()) {
+        sim.stepCoarse();
+        const double t = sim.time();
+        const double v = goal->parameter("strength");
+        if (std::abs(t - 1.0) < 1e-9) { BOOST_TEST(v == 0.5); sawStart = true; }
+        else if (std::abs(t - 3.0) < 1e-9) { BOOST_TEST(v == 2.5); sawEnd = true; }
+        else if (t < 1.0) BOOST_TEST(v == 0.5);
+        else if (t > 3.0) BOOST_TEST(v == 2.5);
+        else {
+            BOOST_TEST(std::abs(v - (0.5 + (t - 1.0))) < 1e-12, "t = " << t << ": " << v);
+            if (std::abs(t - 2.0) < 1e-9) { BOOST_TEST(std::abs(v - 1.5) < 1e-12); sawMiddle = true; }
+        }
+        const double ps = sim.agents().basePrefSpeed.at(0);
+        const double want = t < 2.0 ? 1.0 : t > 4.0 ? 1.8 : 1.0 + 0.4 * (t - 2.0);
+        BOOST_TEST(std::abs(ps - want) < 1e-12, "t = " << t << ": pref_speed " << ps);
+        BOOST_TEST(std::abs(sim.scheduleValues()[1] - want) < 1e-12);
+    }
+    BOOST_TEST(sawStart);
+    BOOST_TEST(sawEnd);
+    BOOST_TEST(sawMiddle);
+    BOOST_TEST(std::abs(sim.agents().basePrefSpeed.at(0) - 1.8) < 1e-15);
+}
+
+BOOST_AUTO_TEST_CASE(ramped_values_are_extra_metrics_columns) {
+    ScenarioSpec s = fineScenario({agent(0, {0, 0}, {100, 0})}, false, std::nullopt, 2);
+    RampSpec r;
+    r.component = "GoalReachingForce";
+    r.parameter = "strength";
+    r.from = 1;
+    r.to = 2;
+    r.start = 0;
+    r.end = 1;
+    s.ramps.push_back(r);
+    Simulation sim(s);
+    MetricsRecorder m(0.5);
+    m.sample(sim);
+    while (!sim.finished()) {
+        sim.stepCoarse();
+        m.maybeSample(sim);
+    }
+    const std::string csv = m.csv();
+    BOOST_TEST(csv.substr(0, csv.find('\n')) == std::string(kMetricsHeader) + ",GoalReachingForce.strength");
+    BOOST_TEST(csv.find("\n0.5,") != std::string::npos);
+    // The row of t = 0.5 s ends with the ramp's value 1.5, the row of t = 2 s with 2.
+    const auto row = [&](const std::string& t) {
+        const auto at = csv.find("\n" + t + ",");
+        return csv.substr(at + 1, csv.find('\n', at + 1) - at - 1);
+    };
+    BOOST_TEST(row("0.5").substr(row("0.5").rfind(',') + 1) == "1.5");
+    BOOST_TEST(row("2").substr(row("2").rfind(',') + 1) == "2");
+}
+
+BOOST_AUTO_TEST_CASE(panic_raises_preferred_speed_as_configured) {
+    // Scheduled panic 0.5, panic speed 3 m/s: v_pref = 1 + 0.5 (3 - 1) = 2 m/s.
+    auto run = [](std::map<std::string, double> values) {
+        values.emplace("panicDecay", 0.0);
+        values.emplace("contagionRate", 0.0);
+        ScenarioSpec s = fineScenario({agent(0, {0, 0}, {100, 0}, 0.25, 1.0, 5.0)}, false, layer(values), 1);
+        Simulation sim(s);
+        sim.stepCoarse();
+        return std::make_pair(sim.agents().prefSpeed.at(0), sim.agents().prefVel.at(0).norm());
+    };
+    const auto on = run({{"panic", 0.5}, {"panicSpeed", 3.0}});
+    BOOST_TEST(std::abs(on.first - 2.0) < 1e-12);
+    BOOST_TEST(std::abs(on.second - 2.0) < 1e-12);
+    const auto off = run({{"panic", 0.5}, {"panicSpeed", 3.0}, {"panicSpeedEffect", 0.0}});
+    BOOST_TEST(off.first == 1.0);
+    const auto calm = run({{"panic", 0.0}, {"panicSpeed", 3.0}});
+    BOOST_TEST(calm.first == 1.0);
+    // A panic speed below the agent's own never slows it down.
+    const auto slow = run({{"panic", 1.0}, {"panicSpeed", 0.5}});
+    BOOST_TEST(slow.first == 1.0);
+
+    // A panic event: the agent within its radius jumps to its strength at its time.
+    ScenarioSpec s = fineScenario({agent(0, {0, 0}, {100, 0}, 0.25, 1.0, 5.0), agent(1, {0, 5}, {100, 5}, 0.25, 1.0, 5.0)},
+                                  false, layer({{"panicDecay", 0.0}, {"contagionRate", 0.0}, {"panicSpeed", 2.0}}), 2);
+    PanicEventSpec e;
+    e.time = 0.5;
+    e.position = Vec2(0.5, 0);
+    e.radius = 2;
+    e.strength = 0.8;
+    s.panicEvents.push_back(e);
+    Simulation sim(s);
+    while (sim.time() < 0.5 - 1e-9) {
+        sim.stepCoarse();
+        BOOST_TEST(sim.agents().prefSpeed.at(0) == 1.0);
+    }
+    sim.stepCoarse();  // the step that starts at 0.5 s
+    BOOST_TEST(recordOfId(sim, 0).panic == 0.8);
+    BOOST_TEST(std::abs(sim.agents().prefSpeed.at(0) - 1.8) < 1e-12);
+    BOOST_TEST(sim.agents().prefSpeed.at(1) == 1.0);  // outside the radius
+    BOOST_TEST(recordOfId(sim, 1).panic == 0.0);
+}
+
+BOOST_AUTO_TEST_CASE(contagion_spreads_along_a_line_at_the_configured_rate) {
+    auto panicsAfter = [](double rate, int steps) {
+        std::vector<AgentSpec> line;
+        for (int k = 0; k < 6; ++k) {
+            AgentSpec a = agent(k, {0.8 * k, 0}, {0, 0}, 0.3);
+            a.goal.reset();  // stands still
+            line.push_back(a);
+        }
+        ScenarioSpec s = fineScenario(line, false,
+                                      layer({{"panicDecay", 0.0}, {"contagionRate", rate}, {"contagionRadius", 1.0},
+                                             {"contagionThreshold", 0.1}}),
+                                      100);
+        PanicEventSpec e;
+        e.position = Vec2(0, 0);
+        e.radius = 0.1;
+        e.strength = 1.0;
+        s.panicEvents.push_back(e);
+        Simulation sim(s);
+        for (int k = 0; k < steps; ++k) sim.stepCoarse();
+        std::vector<double> p;
+        for (int k = 0; k < 6; ++k) p.push_back(recordOfId(sim, k).panic);
+        return p;
+    };
+    const double rate = 2.0, dt = 0.02;
+    const int steps = 50;  // 1 s
+    const std::vector<double> p = panicsAfter(rate, steps);
+    BOOST_TEST(p[0] == 1.0);
+    // Agent 1 follows dP/dt = rate (1 - P) from the step after the event (explicit Euler).
+    const double expected1 = 1.0 - std::pow(1.0 - rate * dt, steps - 1);
+    BOOST_TEST(std::abs(p[1] - expected1) < 1e-12, "P1 = " << p[1] << ", expected " << expected1);
+    // Further along the line it arrives later, and only through the neighbours (0.8 m apart,
+    // radius 1 m): each agent has less than the one before.
+    for (int k = 1; k < 5; ++k) BOOST_TEST(p[k] > p[k + 1], "P" << k << " = " << p[k] << ", P" << k + 1 << " = " << p[k + 1]);
+    BOOST_TEST(p[2] > 0.0);
+    // Agent 2 starts once agent 1 passes the threshold: the first step with P1 >= 0.1.
+    const std::vector<double> early = panicsAfter(rate, 4);
+    BOOST_TEST(early[2] == 0.0);
+    BOOST_TEST(early[1] > 0.0);
+    // Twice the rate, faster spread.
+    const std::vector<double> fast = panicsAfter(2 * rate, steps);
+    for (int k = 1; k < 6; ++k) BOOST_TEST(fast[k] > p[k]);
+    // No contagion at rate 0.
+    const std::vector<double> none = panicsAfter(0.0, steps);
+    for (int k = 1; k < 6; ++k) BOOST_TEST(none[k] == 0.0);
+}
+
+namespace {
+/// Two agents walking into each other: contact forces rise and fall.
+ScenarioSpec collision(const std::map<std::string, double>& health) {
+    std::vector<AgentSpec> a = {agent(0, {0, 0}, {6, 0}, 0.3, 1.4, 1.8), agent(1, {1.5, 0.05}, {-5, 0.05}, 0.3, 1.4, 1.8)};
+    return fineScenario(a, true, layer(health), 4);
+}
+}  // namespace
+
+BOOST_AUTO_TEST_CASE(dose_grows_only_above_the_threshold) {
+    // First find the peak force of this collision with a threshold no contact reaches.
+    double peak = 0;
+    {
+        Simulation sim(collision({{"crushThreshold", 1e6}}));
+        while (!sim.finished()) sim.stepCoarse();
+        const HealthRecord& r = recordOfId(sim, 0);
+        peak = r.peakForce;
+        BOOST_TEST(r.dose == 0.0);
+        BOOST_TEST(r.timeAboveThreshold == 0.0);
+    }
+    BOOST_REQUIRE(peak > 0);
+    const double threshold = 0.5 * peak;
+    Simulation sim(collision({{"crushThreshold", threshold}, {"injuryDose", 1e9}}));
+    const double dt = sim.deltaTimeFine();
+    int above = 0, belowButInContact = 0;
+    double previousDose = 0, previousTime = 0;
+    while (!sim.finished()) {
+        sim.stepCoarse();  // one fine step
+        const HealthRecord& r = recordOfId(sim, 0);
+        const double force = r.lastForce;
+        BOOST_TEST(std::abs(force - 80.0 * sim.agents().mass.at(0) * sim.agents().contactAccel.at(0).norm()) < 1e-9);
+        if (force > threshold) {
+            ++above;
+            BOOST_TEST(std::abs(r.dose - (previousDose + force * dt)) < 1e-9);
+            BOOST_TEST(std::abs(r.timeAboveThreshold - (previousTime + dt)) < 1e-12);
+        } else {
+            if (force > 0) ++belowButInContact;
+            BOOST_TEST(r.dose == previousDose);
+            BOOST_TEST(r.timeAboveThreshold == previousTime);
+        }
+        previousDose = r.dose;
+        previousTime = r.timeAboveThreshold;
+    }
+    BOOST_TEST(above > 0);
+    BOOST_TEST(belowButInContact > 0);
+    BOOST_TEST(std::abs(recordOfId(sim, 0).peakForce - peak) < 1e-9);
+}
+
+BOOST_AUTO_TEST_CASE(injury_lowers_speed) {
+    auto run = [](bool effect) {
+        Simulation sim(collision({{"crushThreshold", 0.0}, {"injuryDose", 1.0}, {"injuredSpeedFactor", 0.5},
+                                  {"injuredMaxSpeedFactor", 0.25}, {"injuryEffect", effect ? 1.0 : 0.0}}));
+        double injuredAt = -1;
+        while (!sim.finished() && injuredAt < 0) {
+            sim.stepCoarse();
+            if (recordOfId(sim, 0).injured()) injuredAt = sim.time();
+        }
+        BOOST_REQUIRE(injuredAt > 0);
+        BOOST_TEST(recordOfId(sim, 0).injuredAt == injuredAt);
+        BOOST_TEST(recordOfId(sim, 0).dose >= 1.0);
+        sim.stepCoarse();  // the speeds in effect are set at the start of the next step
+        return std::make_pair(sim.agents().prefSpeed.at(0), sim.agents().maxSpeed.at(0));
+    };
+    const auto hurt = run(true);
+    BOOST_TEST(std::abs(hurt.first - 0.7) < 1e-12);
+    BOOST_TEST(std::abs(hurt.second - 0.45) < 1e-12);
+    const auto unaffected = run(false);  // still injured (recorded), no effect on motion
+    BOOST_TEST(unaffected.first == 1.4);
+    BOOST_TEST(unaffected.second == 1.8);
+
+    // Without a <CrowdHealth> element the injury is recorded but changes nothing.
+    ScenarioSpec s = collision({});
+    s.policies[0].health.reset();
+    Simulation sim(s);
+    while (!sim.finished()) sim.stepCoarse();
+    BOOST_TEST(sim.health().injuredCount() == 0u);  // default thresholds: 4500 N, 135 kN s
+}
+
+BOOST_AUTO_TEST_CASE(layer_is_thread_count_independent) {
+    auto run = [](int threads) {
+        std::vector<AgentSpec> agents;
+        for (int k = 0; k < 30; ++k) agents.push_back(agent(k, {0.7 * (k % 6), 0.7 * (k / 6)}, {20, 2}, 0.3, 1.2, 2.0));
+        ScenarioSpec s = fineScenario(agents, true,
+                                      layer({{"erratic", 1.0}, {"herding", 1.0}, {"panic", 0.3}, {"contagionRate", 1.0}}), 3);
+        Simulation sim(s);
+        sim.setThreads(threads);
+        while (!sim.finished()) sim.stepCoarse();
+        return healthCsv(sim.health());
+    };
+    BOOST_TEST(run(1) == run(2));
+}
