@@ -77,11 +77,25 @@ Vec2 SocialForcesAvoidance::acceleration(const AgentQuery& q, const StepContext&
         const bool inView = heading.squaredNorm() == 0 || heading.dot(n.offset / n.distance) >= cosFov;
         f += (inView ? 1.0 : behind_) * fj;
     }
-    for (int s : q.segments) {
-        const Segment& seg = ctx.world.segments()[s];
-        const Vec2 diff = q.position - closestPointOnSegment(q.position, seg.a, seg.b);
-        if (diff.norm() > range_) continue;
-        f += wallForce(diff);
+    // Walls: one force per obstacle, from its nearest point (Helbing & Molnár's "nearest point of
+    // the border"). Summing over segments would count a convex corner twice — its two edges share
+    // the nearest point — and push agents back from door jambs with double strength. The query's
+    // segments are ascending by index and an obstacle's edges are consecutive.
+    const auto& segments = ctx.world.segments();
+    std::size_t k = 0;
+    while (k < q.segments.size()) {
+        const int obstacle = segments[q.segments[k]].obstacle;
+        Vec2 nearest(0, 0);
+        double best = kInf;
+        for (; k < q.segments.size() && segments[q.segments[k]].obstacle == obstacle; ++k) {
+            const Segment& seg = segments[q.segments[k]];
+            const Vec2 diff = q.position - closestPointOnSegment(q.position, seg.a, seg.b);
+            if (diff.squaredNorm() < best) {
+                best = diff.squaredNorm();
+                nearest = diff;
+            }
+        }
+        if (std::sqrt(best) <= range_) f += wallForce(nearest);
     }
     return f / q.mass;
 }

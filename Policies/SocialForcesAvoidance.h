@@ -10,7 +10,8 @@ namespace ch {
 /// parameters:
 ///  * pedestrians: V(b) = V0·exp(−b/σ) with the elliptic b(R) of eq. 4,
 ///    2b = sqrt((|R| + |R − v_β Δt e_β|)² − (v_β Δt)²); f = −∇_R V(b), the exact gradient;
-///  * walls: U(R) = U0·exp(−|R|/R_wall), f = −∇U along the normal from the nearest wall point;
+///  * walls: U(R) = U0·exp(−|R|/R_wall), f = −∇U along the normal from the nearest point of each
+///    obstacle (one force per obstacle; UMANS sums over edges, which doubles it at corners);
 ///  * weight 1 inside the field of view (±100° around the walking direction), 0.5 behind (eq. 8);
 ///  * agents already in contact exert no social force (contact forces take over, as UMANS).
 /// The result is divided by the agent's mass factor.
