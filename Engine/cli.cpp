@@ -56,6 +56,8 @@ po::options_description visibleOptions() {
         ("trajectories", po::value<std::string>()->value_name("umans|txt|both|none"),
          "trajectory files: UMANS output_<id>.csv, PedPy trajectories.txt, both or none "
          "(default: the scenario's <Output>, else none)")
+        ("plot", "after the run(s), draw fig3.png, health.png, schedule.png and heatmap.png into "
+         "OUTDIR with gnuplot (the same as 'crowdhealth plot OUTDIR' later)")
         ("quiet,q", "no progress bar and no closing summary")
         ("check", "validate the scenario (load and build it), print a one-line summary, write nothing")
         ("list-policies", "list every registered cost function and force with its parameters")
@@ -86,6 +88,7 @@ void printHelp(std::ostream& out) {
     out << "Usage: crowdhealth -i SCENARIO -o OUTDIR [options]\n"
            "       crowdhealth -i SCENARIO -o OUTDIR --replications N [-t THREADS] [--seed S]\n"
            "       crowdhealth -i SCENARIO --check\n"
+           "       crowdhealth plot DIR | compare DIR... [-o OUTDIR]   (see 'crowdhealth plot --help')\n"
            "       crowdhealth --list-policies [--format text|markdown]\n\n"
            "Runs a CrowdHealth (UMANS-compatible) crowd scenario and writes metrics.csv,\n"
            "evacuations.csv, summary.json and optionally trajectories to OUTDIR.\n"
@@ -142,6 +145,11 @@ std::optional<Options> parseCommandLine(int argc, const char* const argv[], std:
 
     o.command = vm.count("check") ? Command::Check : Command::Run;
     o.quiet = vm.count("quiet") != 0;
+    o.plot = vm.count("plot") != 0;
+    if (o.plot && o.command == Command::Check) {
+        usageError(err, "--plot cannot be combined with --check (nothing is run to plot)");
+        return std::nullopt;
+    }
     if (!vm.count("input")) { usageError(err, "no scenario given: use -i SCENARIO"); return std::nullopt; }
     o.input = str("input");
     if (o.input.empty()) { usageError(err, "the scenario path (-i) is empty"); return std::nullopt; }

@@ -28,6 +28,9 @@ struct Options {
     std::optional<std::uint64_t> replications;
     std::optional<int> flowFirst;  ///< --flow-first: overrides <Output flow_first>
     std::optional<int> flowLast;   ///< --flow-last: overrides <Output flow_last>
+    /// --plot: after the run(s), draw fig3.png, health.png, schedule.png and heatmap.png into
+    /// the output folder (plot.h).
+    bool plot = false;
     bool quiet = false;
     ListFormat format = ListFormat::Text;
     /// Hidden, for tests: raise SIGINT after this many coarse steps (exercises the real

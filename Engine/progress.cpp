@@ -55,7 +55,8 @@ void ProgressBar::draw(const ch::Simulation& sim) {
     const std::size_t evacuated = sim.evacuations().size();
     const std::size_t left = sim.agents().size() + sim.pending();  // still to go
     double fraction = 0;
-    if (endTime_ > 0) fraction = t / endTime_;
+    if (sim.finished()) fraction = 1.0;  // also when everyone left before the end time
+    else if (endTime_ > 0) fraction = t / endTime_;
     else if (total > 0) fraction = static_cast<double>(total - left) / static_cast<double>(total);
     fraction = std::clamp(fraction, 0.0, 1.0);
 

@@ -10,6 +10,7 @@
 #include "run.h"
 
 #include "exit_codes.h"
+#include "plot.h"
 #include "progress.h"
 #include "scenario_run.h"
 #include "signals.h"
@@ -337,7 +338,12 @@ int runReplications(const Options& o) {
                       << (started > 1 ? " ... " + (outDir / records[started - 1].row.run).string() : std::string());
         std::cout << "\n";
     }
-    if (shared.anyFailed) return kExitRuntime;
+    bool plotFailed = false;
+    if (o.plot && wasInterrupted)
+        std::cerr << "crowdhealth: no plots after an interruption; draw them with: crowdhealth plot " << outDir.string() << "\n";
+    else if (o.plot && !rows.empty())
+        plotFailed = plotOutputs(outDir, o.quiet) != kExitOk;
+    if (shared.anyFailed || plotFailed) return kExitRuntime;
     return wasInterrupted ? kExitInterrupted : kExitOk;
 }
 

@@ -2,6 +2,7 @@
 #include "run.h"
 
 #include "exit_codes.h"
+#include "plot.h"
 #include "progress.h"
 #include "scenario_run.h"
 #include "signals.h"
@@ -47,6 +48,7 @@ int checkScenario(const Options& o) {
 }
 
 int runScenario(const Options& o) {
+    if (o.plot && !plotAvailable("--plot")) return kExitRuntime;  // say so before a long run, not after
     if (o.replications) return runReplications(o);
     const std::unique_ptr<ch::Simulation> sim = loadAndBuild(o);
     if (!sim) return kExitInput;
@@ -91,7 +93,12 @@ int runScenario(const Options& o) {
                   << "  agents          " << sim->totalAgents() << " total, " << sim->evacuations().size()
                   << " evacuated, " << sim->leftWorld() << " left the world, " << remaining << " remaining\n"
                   << "  output          " << outDir.string() << "\n";
+        std::cout << ch::verdictText(outcome.verdict);  // the safety verdict (summary.json "verdict")
     }
+    if (o.plot && info.interrupted)
+        std::cerr << "crowdhealth: no plots after an interruption; draw them with: crowdhealth plot " << outDir.string() << "\n";
+    else if (o.plot && plotOutputs(outDir, o.quiet) != kExitOk)
+        return kExitRuntime;
     return info.interrupted ? kExitInterrupted : kExitOk;
 }
 

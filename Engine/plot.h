@@ -1,0 +1,74 @@
+// crowdhealth plot — the figures of a run or of a set of replications, as PNG (gnuplot):
+//
+//   crowdhealth plot DIR [-q]                      (also: crowdhealth -i … -o DIR --plot)
+//
+// Writes into DIR (a run folder, or a replications folder holding run_XXX/):
+//   fig3.png      van Toll et al.'s Fig. 3: mean density, mean contact acceleration, mean speed
+//                 and agents remaining over time, one colour per run (and their mean)
+//   health.png    max contact acceleration, mean panic, injured and crowd pressure over time
+//   schedule.png  the ramped parameters (metrics.csv's extra columns), when there are any
+//   heatmap.png   where high density and crush happened (heatmap.csv), when present
+// See docs/crowd-health.md, "Plots".
+#pragma once
+
+#include "plot_data.h"
+#include "plot_gnuplot.h"
+
+#include <array>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace chcli {
+
+/// Runs the `plot` subcommand; argv[0] is "plot". Exit status (exit_codes.h): 0; 1 when gnuplot
+/// is missing or fails or DIR cannot be written; 2 for a bad command line or a DIR that holds no
+/// run.
+int plotCommand(int argc, char* argv[]);
+
+/// --plot, before anything runs: prints the error and returns false when gnuplot is missing.
+bool plotAvailable(const char* what);
+
+/// --plot, after the run(s): draws the figures of `dir`. Prints what it wrote (unless quiet)
+/// or why it could not; returns an exit status as plotCommand.
+int plotOutputs(const std::filesystem::path& dir, bool quiet);
+
+}  // namespace chcli
+
+namespace chplot {
+
+/// One line of a time-series panel, optionally with a band (t, low, high) behind it.
+struct Series {
+    std::string title;  ///< key entry ("" = none)
+    std::string colour; ///< "#rrggbb"
+    double width = 1.5;
+    Curve points;
+    std::vector<std::array<double, 3>> band;
+};
+
+/// One panel of values against time.
+struct Panel {
+    std::string title, ylabel;
+    std::vector<Series> series;
+    bool key = false;  ///< show the key in this panel
+    std::string keyWhere = "top right";  ///< gnuplot's key position, e.g. "below"
+    bool integerY = false;
+    bool plainText = false;  ///< title and ylabel without enhanced-text markup (e.g. '_')
+    std::string zeroLabel;   ///< written across the panel when every value is 0 (e.g. "nobody injured")
+};
+
+/// The i-th colour of the qualitative palette used for runs and experiments.
+std::string seriesColour(std::size_t i);
+
+/// Adds a multiplot of `panels` (rows × cols, filled row by row) sharing the time axis
+/// [0, tmax], with `ramp` (when given) shaded in every panel.
+void addTimePanels(GnuplotJob& job, const std::string& figureTitle, int rows, int cols,
+                   const std::vector<Panel>& panels, double tmax, std::optional<std::pair<double, double>> ramp);
+
+/// Draws every figure of `e` into e.dir; appends the PNGs written to `written`, failures to
+/// `errors` and remarks (a figure without data) to `notes`.
+void drawExperiment(const Experiment& e, std::vector<std::filesystem::path>& written, std::vector<std::string>& errors,
+                    std::vector<std::string>& notes);
+
+}  // namespace chplot
