@@ -1,16 +1,25 @@
 // crowdhealth — the command-line program: run a scenario, check it, or list the components.
 // Usage: see `crowdhealth --help` (cli.cpp). Exit statuses: exit_codes.h.
 #include "cli.h"
+#include "compare.h"
 #include "exit_codes.h"
 #include "list_policies.h"
+#include "plot.h"
+#include "render.h"
 #include "run.h"
 
 #include <exception>
 #include <iostream>
+#include <string_view>
 
 int main(int argc, char* argv[]) {
     using namespace chcli;
     try {
+        // `crowdhealth render …` has its own options (render.h, docs/rendering.md).
+        if (argc > 1 && std::string_view(argv[1]) == "render") return renderCommand(argc - 1, argv + 1);
+        // `crowdhealth plot DIR` and `crowdhealth compare DIR…` too (plot.h, compare.h, docs/crowd-health.md).
+        if (argc > 1 && std::string_view(argv[1]) == "plot") return plotCommand(argc - 1, argv + 1);
+        if (argc > 1 && std::string_view(argv[1]) == "compare") return compareCommand(argc - 1, argv + 1);
         const std::optional<Options> options = parseCommandLine(argc, argv, std::cerr);
         if (!options) return kExitInput;
         switch (options->command) {

@@ -6,7 +6,9 @@ cd "$(dirname "$0")/.."
 
 PACKAGES=(g++ cmake make pkg-config libtinyxml2-dev libeigen3-dev libboost-program-options-dev
           libboost-test-dev libgnuplot-iostream-dev libboost-iostreams-dev libboost-system-dev
-          libboost-filesystem-dev gnuplot-nox)
+          libboost-filesystem-dev gnuplot-nox
+          # crowdhealth-viewer and its test, screenshots/PNG checks (docs/rendering.md)
+          libglfw3-dev libgl-dev zlib1g-dev xvfb xauth)
 
 missing=()
 for p in "${PACKAGES[@]}"; do

@@ -1,0 +1,159 @@
+// crowdhealth — shared by the renderer and the viewer (see render_scene.h).
+#include "render_scene.h"
+
+#include <crowdhealth/diagnostics.h>
+#include <crowdhealth/xml.h>
+
+#include <algorithm>
+#include <cmath>
+#include <iostream>
+#include <numbers>
+
+namespace chrender {
+
+Rgb densityColour(double rho) {
+    if (!std::isfinite(rho)) rho = 0;
+    const double pi = std::numbers::pi;
+    const double d = std::min(5 * pi / 4, 5 * pi * rho / 32);
+    Rgb c;
+    c.r = std::max(0.0, -std::cos(d));
+    c.g = std::max(0.0, std::sin(d));
+    c.b = rho < 4 ? std::cos(d) : -std::sin(d);
+    c.b = std::clamp(c.b, 0.0, 1.0);
+    return c;
+}
+
+Rgb heatColour(double x) {
+    if (!std::isfinite(x)) x = 0;
+    x = std::clamp(x, 0.0, 1.0);
+    const double pi = std::numbers::pi;
+    Rgb c;
+    c.r = std::sqrt(x);
+    c.g = x * x * x;
+    c.b = std::clamp(std::sin(2 * pi * x), 0.0, 1.0);
+    return c;
+}
+
+std::optional<Colouring> parseColouring(const std::string& name) {
+    if (name == "density") return Colouring::Density;
+    if (name == "contact") return Colouring::Contact;
+    if (name == "panic") return Colouring::Panic;
+    if (name == "injury") return Colouring::Injury;
+    if (name == "none") return Colouring::None;
+    return std::nullopt;
+}
+
+std::string colouringName(Colouring c) {
+    switch (c) {
+        case Colouring::Density: return "density";
+        case Colouring::Contact: return "contact";
+        case Colouring::Panic: return "panic";
+        case Colouring::Injury: return "injury";
+        case Colouring::None: return "none";
+    }
+    return "none";
+}
+
+std::string colouringLabel(Colouring c) {
+    switch (c) {
+        case Colouring::Density: return "SPH density (1/m²)";
+        case Colouring::Contact: return "contact acceleration (m/s²)";
+        case Colouring::Panic: return "panic (0..1)";
+        case Colouring::Injury: return "injury (0..1)";
+        case Colouring::None: return "";
+    }
+    return "";
+}
+
+std::optional<ch::ScenarioSpec> loadForDisplay(const std::string& path, std::ostream& err) {
+    ch::Diagnostics diags;
+    std::optional<ch::ScenarioSpec> spec;
+    try {
+        spec = ch::loadScenario(path, diags);
+    } catch (const std::exception& e) {
+        diags.error(ch::SourceLoc{path, 0}, std::string("cannot load the scenario: ") + e.what());
+    }
+    diags.print(err);
+    if (!spec || diags.hasErrors()) {
+        if (!diags.hasErrors()) err << path << ": error: the scenario could not be loaded\n";
+        return std::nullopt;
+    }
+    return spec;
+}
+
+Box sceneBounds(const ch::ScenarioSpec& spec) {
+    double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
+    auto add = [&](const ch::Vec2& p) {
+        if (!std::isfinite(p.x()) || !std::isfinite(p.y())) return;
+        x0 = std::min(x0, p.x()); x1 = std::max(x1, p.x());
+        y0 = std::min(y0, p.y()); y1 = std::max(y1, p.y());
+    };
+    for (const auto& o : spec.obstacles)
+        for (const auto& p : o.points) add(p);
+    for (const auto& a : spec.agents) {
+        add(a.position);
+        if (a.goal) add(*a.goal);
+    }
+    if (spec.world.type == ch::WorldType::Planar) {
+        add({spec.world.xmin, spec.world.ymin});
+        add({spec.world.xmax, spec.world.ymax});
+    } else if (spec.world.type == ch::WorldType::Toric) {
+        add({-spec.world.width / 2, -spec.world.height / 2});
+        add({spec.world.width / 2, spec.world.height / 2});
+    }
+    if (x0 > x1) { x0 = -10; x1 = 10; y0 = -10; y1 = 10; }
+    return Box{x0 - 1, x1 + 1, y0 - 1, y1 + 1};
+}
+
+std::vector<GoalMark> goalMarks(const ch::ScenarioSpec& spec) {
+    std::vector<GoalMark> marks;
+    for (const auto& a : spec.agents) {
+        if (!a.goal) continue;
+        const double r = a.goalRadius >= 0 ? a.goalRadius : a.radius;
+        auto it = std::find_if(marks.begin(), marks.end(),
+                               [&](const GoalMark& m) { return (m.position - *a.goal).norm() < 1e-9; });
+        if (it == marks.end()) marks.push_back({*a.goal, r});
+        else it->radius = std::max(it->radius, r);
+    }
+    return marks;
+}
+
+const std::vector<double>* componentField(const ch::Simulation& sim, const std::string& name) {
+    for (const ch::Policy& p : sim.policies())
+        for (const ch::PolicyStep& s : p.steps())
+            for (const auto& e : s.components())
+                if (const std::vector<double>* f = e.component->field(name)) return f;
+    return nullptr;
+}
+
+std::string colouringProblem(const ch::Simulation& sim, Colouring c) {
+    if (c != Colouring::Panic && c != Colouring::Injury) return "";
+    const std::string name = colouringName(c);
+    if (componentField(sim, name)) return "";
+    return "colouring by " + name + " needs the CrowdHealth layer's per-agent field \"" + name +
+           "\", and no component of this scenario's policies provides it (the CrowdHealth layer is "
+           "not available in this build or not enabled in the scenario); use --color density or contact";
+}
+
+std::vector<double> agentValues(ch::Simulation& sim, Colouring c) {
+    const ch::AgentStore& a = sim.agents();
+    std::vector<double> v(a.size(), 0.0);
+    switch (c) {
+        case Colouring::Density:
+            sim.measureDensity(1.0);
+            v = a.density;
+            break;
+        case Colouring::Contact:
+            for (std::size_t i = 0; i < a.size(); ++i) v[i] = a.contactAccel[i].norm();
+            break;
+        case Colouring::Panic:
+        case Colouring::Injury:
+            if (const std::vector<double>* f = componentField(sim, colouringName(c)))
+                for (std::size_t i = 0; i < a.size() && i < f->size(); ++i) v[i] = (*f)[i];
+            break;
+        case Colouring::None: break;
+    }
+    return v;
+}
+
+}  // namespace chrender
