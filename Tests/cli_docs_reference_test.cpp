@@ -1,12 +1,14 @@
 // docs/xml-reference.md carries a section generated from the registry (every cost function and
 // force with its parameter table). This test fails when that section differs from what the
 // program prints now, i.e. when a component was added or its table changed without running
-// scripts/gen-xml-reference.sh. (Named cli_* so that CMake builds the program before it.)
+// scripts/gen-xml-reference.sh. It also checks the hand-written <CrowdHealth> table against the
+// layer's parameter table. (Named cli_* so that CMake builds the program before it.)
 #define BOOST_TEST_MODULE docs_reference
 #include <boost/test/unit_test.hpp>
 
 #include "cli_support.h"
 
+#include <crowdhealth/health.h>
 #include <crowdhealth/registry.h>
 
 #include <string>
@@ -66,8 +68,12 @@ BOOST_AUTO_TEST_CASE(generated_components_section_matches_the_program) {
     const std::vector<std::string> want = lines(r.out), have = lines(inDoc);
     std::size_t k = 0;
     while (k < want.size() && k < have.size() && want[k] == have[k]) ++k;
-    const std::string nowLine = k < want.size() ? want[k] : "(end of section)";
-    const std::string docLine = k < have.size() ? have[k] : "(end of section)";
+    auto shown = [](const std::vector<std::string>& v, std::size_t i) -> std::string {
+        if (i >= v.size()) return "(end of section)";
+        return v[i].empty() ? "(empty line)" : v[i];
+    };
+    const std::string nowLine = shown(want, k);
+    const std::string docLine = shown(have, k);
     BOOST_ERROR("docs/xml-reference.md: the generated section 'components' (line "
                 << begins[0] + 2 + k << ") differs from `crowdhealth --list-policies --format markdown`:\n"
                 << "  in the document: " << docLine << "\n"
@@ -85,4 +91,24 @@ BOOST_AUTO_TEST_CASE(every_registered_component_has_a_heading_in_the_document) {
     for (const std::string& name : names)
         BOOST_TEST(text.find("\n### " + name + "\n") != std::string::npos,
                    "docs/xml-reference.md has no heading '### " << name << "'; " << kHowToFix);
+}
+
+BOOST_AUTO_TEST_CASE(crowd_health_table_matches_the_layer) {
+    // The <CrowdHealth> table is written by hand (the program does not print it); each row must
+    // still carry the layer's unit, default and range, as `| `name` | unit | default | range |`.
+    const std::vector<std::string> docLines = lines(readFile(docPath()));
+    for (const ch::ParamSpec& p : ch::crowdHealthTable()) {
+        const std::string unit = p.unit.empty() ? "-" : p.unit;
+        const std::string expected =
+            "| `" + p.name + "` | " + unit + " | " + p.defaultText() + " | " + p.rangeText() + " |";
+        bool found = false, present = false;
+        for (const std::string& l : docLines) {
+            if (l.rfind("| `" + p.name + "` |", 0) != 0) continue;
+            present = true;
+            found = found || l.rfind(expected, 0) == 0;
+        }
+        BOOST_TEST(found, "docs/xml-reference.md, section <CrowdHealth>: "
+                              << (present ? "the row of" : "no row for") << " '" << p.name
+                              << "' should start with: " << expected);
+    }
 }
