@@ -111,7 +111,11 @@ void SafetyRecorder::record(const Simulation& sim) {
                     held[l] = true;
                     people[l] += static_cast<std::size_t>(f.people[k]);
                 }
-            if (f.pressure[k] > t_.crowdPressureCritical) {
+            // Crowd turbulence is a dense-crowd phenomenon (Helbing et al. 2007 observed it at
+            // high densities). In sparse or crossing flows the instantaneous velocity variance
+            // only says that people walk in different directions, so pressure counts only where
+            // the density is above Fruin's level F as well.
+            if (f.pressure[k] > t_.crowdPressureCritical && f.density[k] > t_.densityCaution) {
                 cell.seconds[Pressure] += dt;
                 held[Pressure] = true;
                 people[Pressure] += static_cast<std::size_t>(f.people[k]);

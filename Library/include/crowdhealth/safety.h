@@ -28,7 +28,8 @@ struct SafetyThresholds {
     double densityCaution = 2.17;     ///< persons/m², Fruin's walkway level of service F (< 0.46 m²/person)
     double densityDangerous = 4.0;    ///< persons/m², Still: moving crowds at risk above ~4
     double densityCritical = 6.0;     ///< persons/m², Still: crowd collapse/shock waves at ~6–7
-    double crowdPressureCritical = 0.02;  ///< 1/s², Helbing et al. 2007: onset of crowd turbulence
+    double crowdPressureCritical = 0.02;  ///< 1/s², Helbing et al. 2007: onset of crowd turbulence;
+                                          ///< counted only where density > densityCaution
     double minDuration = 1.0;         ///< s a density/pressure condition must hold (anywhere) to count
     double doseDangerousFraction = 0.5;  ///< crush is `dangerous` once a dose reaches this share of injuryDose
 };
