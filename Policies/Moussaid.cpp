@@ -33,32 +33,8 @@ Moussaid::Moussaid(const ParamSet& params) {
 
 double Moussaid::distanceToCollision(const Vec2& dir, double speed, const AgentQuery& q,
                                      const StepContext& ctx) const {
-    const AgentStore& A = ctx.agents;
     const Vec2 v = dir * speed;
-    double first = kInf;  // time to the first collision
-    for (const NeighbourAgent& n : q.agents) {
-        if (n.distance > range_) continue;
-        const Vec2& vj = A.vel[n.index];
-        const double rj = A.radius[n.index];
-        double t;
-        if (n.distance <= q.radius + rj)  // overlapping now: blocks only the directions closing the gap
-            t = (v - vj).dot(n.offset) > 0 ? 0.0 : kInf;
-        else
-            t = timeToCollision(Vec2(0, 0), v, q.radius, n.offset, vj, rj);
-        first = std::min(first, t);
-    }
-    for (int s : q.segments) {
-        const Segment& seg = ctx.world.segments()[s];
-        const Vec2 toWall = closestPointOnSegment(q.position, seg.a, seg.b) - q.position;
-        const double d = toWall.norm();
-        if (d > range_) continue;
-        double t;
-        if (d <= q.radius)
-            t = v.dot(toWall) > 0 ? 0.0 : kInf;
-        else
-            t = timeToCollisionSegment(q.position, v, q.radius, seg.a, seg.b);
-        first = std::min(first, t);
-    }
+    const double first = timeToFirstCollision(v, q, ctx, range_);
     if (!(first < kInf)) return dMax_;
     return std::min(dMax_, first * speed);
 }

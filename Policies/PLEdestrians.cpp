@@ -43,32 +43,7 @@ PLEdestrians::PLEdestrians(const ParamSet& params) {
 }
 
 double PLEdestrians::timeToFirstCollision(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const {
-    const AgentStore& A = ctx.agents;
-    double first = kInf;
-    for (const NeighbourAgent& n : q.agents) {
-        if (n.distance > range_) continue;
-        const Vec2& vj = A.vel[n.index];
-        const double rj = A.radius[n.index];
-        double t;
-        if (n.distance <= q.radius + rj)  // overlapping now: a collision only if v closes the gap
-            t = (v - vj).dot(n.offset) > 0 ? 0.0 : kInf;
-        else
-            t = timeToCollision(Vec2(0, 0), v, q.radius, n.offset, vj, rj);
-        first = std::min(first, t);
-    }
-    for (int s : q.segments) {
-        const Segment& seg = ctx.world.segments()[s];
-        const Vec2 toWall = closestPointOnSegment(q.position, seg.a, seg.b) - q.position;
-        const double d = toWall.norm();
-        if (d > range_) continue;
-        double t;
-        if (d <= q.radius)
-            t = v.dot(toWall) > 0 ? 0.0 : kInf;
-        else
-            t = timeToCollisionSegment(q.position, v, q.radius, seg.a, seg.b);
-        first = std::min(first, t);
-    }
-    return first;
+    return ch::timeToFirstCollision(v, q, ctx, range_);
 }
 
 Vec2 PLEdestrians::goalOffset(const AgentQuery& q, const StepContext& ctx) const {

@@ -39,31 +39,7 @@ double angleBetween(const Vec2& a, const Vec2& b) {
 }  // namespace
 
 double VanToll::timeToFirstCollision(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const {
-    const AgentStore& A = ctx.agents;
-    double best = kInf;
-    for (const NeighbourAgent& n : q.agents) {
-        if (n.distance > range_) continue;
-        const Vec2& u = A.vel[n.index];
-        const double R = q.radius + A.radius[n.index];
-        if (n.distance <= R) {
-            // Overlapping now: a collision only for velocities that bring the centres closer.
-            if ((v - u).dot(n.offset) > 0) return 0.0;
-            continue;
-        }
-        best = std::min(best, timeToCollision(Vec2(0, 0), v, q.radius, n.offset, u, A.radius[n.index]));
-    }
-    for (int k : q.segments) {
-        const Segment& seg = ctx.world.segments()[k];
-        const Vec2 nearest = closestPointOnSegment(q.position, seg.a, seg.b);
-        const double d2 = (nearest - q.position).squaredNorm();
-        if (d2 > range_ * range_) continue;
-        if (d2 <= q.radius * q.radius) {
-            if (v.dot(nearest - q.position) > 0) return 0.0;
-            continue;
-        }
-        best = std::min(best, timeToCollisionSegment(q.position, v, q.radius, seg.a, seg.b));
-    }
-    return best;
+    return ch::timeToFirstCollision(v, q, ctx, range_);
 }
 
 double VanToll::cost(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const {

@@ -1,10 +1,38 @@
 // CrowdHealth — default behaviour of components (numerical gradient, force-based cost).
 #include "crowdhealth/component.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
 namespace ch {
+
+double timeToFirstCollision(const Vec2& v, const AgentQuery& q, const StepContext& ctx, double range) {
+    const AgentStore& A = ctx.agents;
+    double first = kInf;
+    for (const NeighbourAgent& n : q.agents) {
+        if (n.distance > range) continue;
+        const Vec2& vj = A.vel[n.index];
+        const double rj = A.radius[n.index];
+        if (n.distance <= q.radius + rj) {
+            if ((v - vj).dot(n.offset) > 0) return 0.0;
+            continue;
+        }
+        first = std::min(first, timeToCollision(Vec2(0, 0), v, q.radius, n.offset, vj, rj));
+    }
+    for (int s : q.segments) {
+        const Segment& seg = ctx.world.segments()[s];
+        const Vec2 toWall = closestPointOnSegment(q.position, seg.a, seg.b) - q.position;
+        const double d2 = toWall.squaredNorm();
+        if (d2 > range * range) continue;
+        if (d2 <= q.radius * q.radius) {
+            if (v.dot(toWall) > 0) return 0.0;
+            continue;
+        }
+        first = std::min(first, timeToCollisionSegment(q.position, v, q.radius, seg.a, seg.b));
+    }
+    return first;
+}
 
 Vec2 Component::gradient(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const {
     // Central differences; δ = 0.1 m/s as UMANS, large enough to smooth sampling noise in costs.

@@ -65,6 +65,12 @@ struct StepContext {
 
 enum class ComponentKind { CostFunction, Force };
 
+/// Time (s) until the query agent, moving at velocity v, first touches a neighbour (moving at its
+/// current velocity) or a wall within `range` m; kInf if never. A neighbour or wall already
+/// overlapped counts as an immediate collision (0) only for velocities that close the gap, so an
+/// agent in contact can always move away. Shared by the time-to-collision models.
+double timeToFirstCollision(const Vec2& v, const AgentQuery& q, const StepContext& ctx, double range);
+
 /// Base of every cost function and force. Subclasses bind their parameters in the constructor
 /// with `bind()`, so schedules can change them while running (`setParameter`).
 class Component {
