@@ -1,6 +1,8 @@
 // crowdhealth — shared by the renderer and the viewer (see render_scene.h).
 #include "render_scene.h"
 
+#include "crowdhealth/health.h"
+
 #include <crowdhealth/diagnostics.h>
 #include <crowdhealth/xml.h>
 
@@ -127,12 +129,12 @@ const std::vector<double>* componentField(const ch::Simulation& sim, const std::
 }
 
 std::string colouringProblem(const ch::Simulation& sim, Colouring c) {
-    if (c != Colouring::Panic && c != Colouring::Injury) return "";
-    const std::string name = colouringName(c);
-    if (componentField(sim, name)) return "";
-    return "colouring by " + name + " needs the CrowdHealth layer's per-agent field \"" + name +
-           "\", and no component of this scenario's policies provides it (the CrowdHealth layer is "
-           "not available in this build or not enabled in the scenario); use --color density or contact";
+    // Panic and injury come from the CrowdHealth layer, which every simulation carries (without a
+    // <CrowdHealth> element it measures with the defaults and nobody panics); nothing is missing
+    // when simulating. Replays have positions only: render.cpp refuses these colourings there.
+    (void)sim;
+    (void)c;
+    return "";
 }
 
 std::vector<double> agentValues(ch::Simulation& sim, Colouring c) {
@@ -146,10 +148,11 @@ std::vector<double> agentValues(ch::Simulation& sim, Colouring c) {
         case Colouring::Contact:
             for (std::size_t i = 0; i < a.size(); ++i) v[i] = a.contactAccel[i].norm();
             break;
-        case Colouring::Panic:
-        case Colouring::Injury:
-            if (const std::vector<double>* f = componentField(sim, colouringName(c)))
-                for (std::size_t i = 0; i < a.size() && i < f->size(); ++i) v[i] = (*f)[i];
+        case Colouring::Panic:  // level 0..1
+            for (std::size_t i = 0; i < a.size(); ++i) v[i] = sim.health().recordOf(a, i).panic;
+            break;
+        case Colouring::Injury:  // 1 once injured
+            for (std::size_t i = 0; i < a.size(); ++i) v[i] = sim.health().recordOf(a, i).injured() ? 1.0 : 0.0;
             break;
         case Colouring::None: break;
     }

@@ -37,7 +37,7 @@ const char* kControls =
     "  + / -          faster / slower (coarse steps per drawn frame: 1, 2, 4 … 64)\n"
     "  mouse wheel    zoom around the cursor;  drag (left or right button): pan;  F: fit the scene\n"
     "  left click     select an agent and print its record (click empty space to deselect)\n"
-    "  C              next colouring: density, contact, panic, injury (if the scenario has them), none\n"
+    "  C              next colouring: density, contact, panic, injury, none\n"
     "  1 2 3 4        choose the parameter to change: 1 rest density max (SPH restDensityMax),\n"
     "                 2 gas constant (SPH gasConstant), 3 preferred speed (every agent),\n"
     "                 4 goal strength (GoalReachingForce strength)\n"
@@ -172,9 +172,9 @@ void Viewer::printAgent(std::size_t i) {
               << a.pos[i].y() << ") m, speed " << a.vel[i].norm() << " m/s, density " << a.density[i]
               << " 1/m², contact acceleration " << a.contactAccel[i].norm() << " m/s², radius " << a.radius[i]
               << " m";
-    for (const char* f : {"panic", "injury"})
-        if (const std::vector<double>* v = chrender::componentField(*sim_, f); v && i < v->size())
-            std::cout << ", " << f << " " << (*v)[i];
+    const ch::HealthRecord& h = sim_->health().recordOf(a, i);
+    std::cout << ", panic " << h.panic << ", peak force " << h.peakForce << " N, crush dose " << h.dose << " N s"
+              << (h.injured() ? ", injured" : "");
     std::cout << "\n" << std::flush;
 }
 
