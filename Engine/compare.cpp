@@ -242,8 +242,11 @@ std::string drawComparison(const std::vector<Experiment>& experiments, const fs:
     panels[1].key = true;
     panels[1].integerY = true;
     panels[5].zeroLabel = "no panic";
-    std::string title = "Comparison of ";
-    for (std::size_t i = 0; i < experiments.size(); ++i) title += (i ? ", " : "") + experiments[i].name;
+    // The names are in the key; list them in the title only while it fits the page width.
+    std::string names;
+    for (std::size_t i = 0; i < experiments.size(); ++i) names += (i ? ", " : "") + experiments[i].name;
+    std::string title = names.size() <= 90 ? "Comparison of " + names
+                                           : "Comparison of " + std::to_string(experiments.size()) + " experiments";
     title += ": mean over the runs (shaded: ± 1 sd)";
     GnuplotJob job;
     addTimePanels(job, title, 3, 2, panels, tmax, ramp);
