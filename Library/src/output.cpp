@@ -206,7 +206,9 @@ MetricsRow measureMetrics(Simulation& sim, double h) {
     const auto fields = restDensityFields(sim);
     const bool anyProvider =
         std::any_of(fields.begin(), fields.end(), [](const auto* f) { return f != nullptr; });
-    if (!anyProvider) {
+    // Before the first step no component has computed a rest density yet (SPH starts it at the
+    // agent's first density): an empty cell, not the zeros its arrays hold.
+    if (!anyProvider || sim.fineSteps() == 0) {
         row.meanRestDensity = std::numeric_limits<double>::quiet_NaN();
     } else {
         double sum = 0;
