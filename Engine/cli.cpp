@@ -116,6 +116,17 @@ std::optional<Options> parseCommandLine(int argc, const char* const argv[], std:
         // No positional options: a stray word is an error, not a silently ignored scenario.
         po::store(po::command_line_parser(argc, argv).options(all).positional({}).run(), vm);
         po::notify(vm);
+    } catch (const po::too_many_positional_options_error&) {
+        // The likeliest mistake: `crowdhealth scenario.xml`. Name the stray word and the fix.
+        std::string stray;
+        for (int k = 1; k < argc; ++k)
+            if (argv[k][0] != '-' && (k == 1 || argv[k - 1][0] != '-' || std::string(argv[k - 1]).find('=') != std::string::npos)) {
+                stray = argv[k];
+                break;
+            }
+        usageError(err, "unexpected argument" + (stray.empty() ? std::string() : " '" + stray + "'") +
+                            ": give the scenario with -i SCENARIO and the output folder with -o OUTDIR");
+        return std::nullopt;
     } catch (const po::error& e) {
         usageError(err, e.what());
         return std::nullopt;

@@ -81,6 +81,15 @@ BOOST_AUTO_TEST_CASE(bad_command_lines_exit_2_with_a_message_and_write_nothing) 
     }
 }
 
+BOOST_AUTO_TEST_CASE(a_scenario_given_without_i_gets_told_how_to_pass_it) {
+    const fs::path dir = freshDir(caseName());
+    const std::string scenario = umansExample("Circle50-SocialForces.xml");
+    const Result r = run(dir, {scenario});
+    BOOST_TEST(r.status == 2);
+    BOOST_TEST(r.err.find("-i SCENARIO") != std::string::npos, r.err);
+    BOOST_TEST(r.err.find("Circle50-SocialForces.xml") != std::string::npos, r.err);
+}
+
 BOOST_AUTO_TEST_CASE(output_path_that_is_a_file_is_a_runtime_failure) {
     const fs::path dir = freshDir(caseName());
     { std::ofstream(dir / "out") << "not a folder\n"; }
