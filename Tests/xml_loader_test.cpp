@@ -554,3 +554,10 @@ BOOST_AUTO_TEST_CASE(errors_before_the_load_do_not_count) {
 }
 
 BOOST_AUTO_TEST_SUITE_END()
+
+BOOST_AUTO_TEST_CASE(attributes_of_another_world_type_are_warned_about) {
+    Load L("world_other_type_attributes.xml");
+    const std::string f = "world_other_type_attributes.xml";
+    BOOST_TEST(L.spec.has_value());  // a warning, not an error (UMANS ignores them)
+    CHECK_DIAG(L, f, 4, "warning: World@xmin is ignored: it applies to Planar worlds, this one is Toric");
+}

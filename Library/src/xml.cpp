@@ -448,6 +448,14 @@ void readWorld(LoadContext& ctx, const std::string& file, const XMLElement* el) 
             w.ymax = *ymax;
         }
     }
+    // Attributes of another world type are not errors (UMANS ignores them) but are worth a word.
+    const char* typeName = w.type == WorldType::Toric ? "Toric" : w.type == WorldType::Planar ? "Planar" : "Infinite";
+    for (const char* attr : {"width", "height"})
+        if (w.type != WorldType::Toric && r.has(attr))
+            ctx.diags.warning(r.loc(attr), std::string("World@") + attr + " is ignored: it applies to Toric worlds, this one is " + typeName);
+    for (const char* attr : {"xmin", "xmax", "ymin", "ymax"})
+        if (w.type != WorldType::Planar && r.has(attr))
+            ctx.diags.warning(r.loc(attr), std::string("World@") + attr + " is ignored: it applies to Planar worlds, this one is " + typeName);
     for (const XMLElement* c = el->FirstChildElement(); c != nullptr; c = c->NextSiblingElement()) {
         if (is(c, "Obstacles")) readBlock(ctx, file, c, Block::Obstacles, false);
         else if (is(c, "Obstacle")) readObstacle(ctx, file, c);
