@@ -18,15 +18,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::string shellQuote(const std::string& s) {
-    std::string q = "'";
-    for (const char c : s) {
-        if (c == '\'') q += "'\\''";
-        else q += c;
-    }
-    return q + "'";
-}
-
 bool executable(const fs::path& p) {
     std::error_code ec;
     return fs::is_regular_file(p, ec) && ::access(p.c_str(), X_OK) == 0;
@@ -53,13 +44,25 @@ std::string readText(const fs::path& p) {
 
 }  // namespace
 
+std::string shellQuote(const std::string& s) {
+    std::string q = "'";
+    for (const char c : s) {
+        if (c == '\'') q += "'\\''";
+        else q += c;
+    }
+    return q + "'";
+}
+
 std::string gnuplotProgram() {
     const char* v = std::getenv("CROWDHEALTH_GNUPLOT");
     return (v && *v) ? std::string(v) : std::string("gnuplot");
 }
 
-std::optional<std::string> findGnuplot() {
-    const std::string program = gnuplotProgram();
+std::optional<std::string> findGnuplot() { return findProgram("CROWDHEALTH_GNUPLOT", "gnuplot"); }
+
+std::optional<std::string> findProgram(const char* envName, const char* fallback) {
+    const char* v = std::getenv(envName);
+    const std::string program = (v && *v) ? std::string(v) : std::string(fallback);
     if (program.find('/') != std::string::npos) {
         if (executable(program)) return program;
         return std::nullopt;

@@ -17,9 +17,15 @@ namespace chplot {
 /// The gnuplot program: $CROWDHEALTH_GNUPLOT, else "gnuplot".
 std::string gnuplotProgram();
 
-/// The full path of the gnuplot program if it can be run (searched on PATH unless the name
-/// holds a '/'), else nullopt.
+/// The full path of an external tool if it can be run: $envName if set, else `fallback`,
+/// searched on PATH unless the name holds a '/'; nullopt when it cannot be run.
+std::optional<std::string> findProgram(const char* envName, const char* fallback);
+
+/// The full path of the gnuplot program if it can be run: findProgram("CROWDHEALTH_GNUPLOT", "gnuplot").
 std::optional<std::string> findGnuplot();
+
+/// `s` quoted for /bin/sh.
+std::string shellQuote(const std::string& s);
 
 /// The error message for a missing gnuplot, naming `what` (e.g. "--plot"), without a trailing
 /// newline.

@@ -7,6 +7,8 @@
 // mapping (recorded in render.json, so tests and tools can find an agent's pixel).
 #include "render.h"
 
+#include "plot_gnuplot.h"
+
 #include "exit_codes.h"
 #include "render_scene.h"
 
@@ -60,27 +62,6 @@ struct RenderOptions {
     int threads = 0;
     bool quiet = false;
 };
-
-std::string shellQuote(const std::string& s) {
-    std::string q = "'";
-    for (const char c : s) {
-        if (c == '\'') q += "'\\''";
-        else q += c;
-    }
-    return q + "'";
-}
-
-/// The program to run for `tool` (environment CROWDHEALTH_GNUPLOT / CROWDHEALTH_FFMPEG override
-/// the name, e.g. to point at another installation).
-std::string toolProgram(const char* envName, const char* fallback) {
-    const char* v = std::getenv(envName);
-    return (v && *v) ? std::string(v) : std::string(fallback);
-}
-
-bool programAvailable(const std::string& program) {
-    const std::string cmd = "command -v " + shellQuote(program) + " >/dev/null 2>&1";
-    return std::system(cmd.c_str()) == 0;
-}
 
 /// "800x600" → (800, 600).
 bool parseSize(const std::string& s, int& w, int& h) {
@@ -162,10 +143,6 @@ bool framesFromScenario(const RenderOptions& o, const ch::ScenarioSpec& spec, st
         sim = std::make_unique<ch::Simulation>(spec);
     } catch (const std::exception& e) {
         std::cerr << o.input << ": error: " << e.what() << "\n";
-        return false;
-    }
-    if (const std::string problem = chrender::colouringProblem(*sim, o.colouring); !problem.empty()) {
-        std::cerr << "crowdhealth render: error: " << problem << "\n";
         return false;
     }
     sim->setThreads(o.threads > 0 ? o.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
@@ -594,13 +571,12 @@ int renderCommand(int argc, char* argv[]) {
     o.colouring = *c;
     if (!(o.fps > 0 && o.fps <= 100)) return usage("--fps must be in (0, 100]");
 
-    const std::string gnuplot = toolProgram("CROWDHEALTH_GNUPLOT", "gnuplot");
-    if (!programAvailable(gnuplot)) {
-        std::cerr << "crowdhealth render: error: gnuplot (\"" << gnuplot
-                  << "\") was not found; install the Debian package gnuplot-nox (scripts/setup.sh does) — nothing was "
-                     "drawn\n";
+    const std::optional<std::string> found = chplot::findGnuplot();
+    if (!found) {
+        std::cerr << "crowdhealth render: error: " << chplot::missingGnuplotMessage("render") << " — nothing was drawn\n";
         return kExitRuntime;
     }
+    const std::string gnuplot = *found;
 
     // the scene and its frames
     std::optional<ch::ScenarioSpec> spec;
@@ -646,7 +622,7 @@ int renderCommand(int argc, char* argv[]) {
     fs::remove(out / "animation.gif", ec);
     fs::remove(out / "animation.mp4", ec);
 
-    const std::string cmd = "cd " + shellQuote(out.string()) + " && " + shellQuote(gnuplot) +
+    const std::string cmd = "cd " + chplot::shellQuote(out.string()) + " && " + chplot::shellQuote(gnuplot) +
                             " render.gp >render-gnuplot.log 2>&1 </dev/null";
     if (std::system(cmd.c_str()) != 0) {
         std::cerr << "crowdhealth render: error: gnuplot failed; its messages are in "
@@ -660,9 +636,9 @@ int renderCommand(int argc, char* argv[]) {
     bool mp4 = false;
     const bool gif = frames.size() > 1;
     if (gif) {
-        const std::string ffmpeg = toolProgram("CROWDHEALTH_FFMPEG", "ffmpeg");
-        if (programAvailable(ffmpeg)) {
-            const std::string fcmd = "cd " + shellQuote(out.string()) + " && " + shellQuote(ffmpeg) +
+        if (const std::optional<std::string> found = chplot::findProgram("CROWDHEALTH_FFMPEG", "ffmpeg")) {
+            const std::string& ffmpeg = *found;
+            const std::string fcmd = "cd " + chplot::shellQuote(out.string()) + " && " + chplot::shellQuote(ffmpeg) +
                                      " -y -loglevel error -framerate " + num(o.fps) +
                                      " -i frame_%04d.png -vf 'scale=trunc(iw/2)*2:trunc(ih/2)*2' -pix_fmt yuv420p "
                                      "-c:v libx264 animation.mp4 </dev/null >render-ffmpeg.log 2>&1";

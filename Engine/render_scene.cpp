@@ -120,23 +120,6 @@ std::vector<GoalMark> goalMarks(const ch::ScenarioSpec& spec) {
     return marks;
 }
 
-const std::vector<double>* componentField(const ch::Simulation& sim, const std::string& name) {
-    for (const ch::Policy& p : sim.policies())
-        for (const ch::PolicyStep& s : p.steps())
-            for (const auto& e : s.components())
-                if (const std::vector<double>* f = e.component->field(name)) return f;
-    return nullptr;
-}
-
-std::string colouringProblem(const ch::Simulation& sim, Colouring c) {
-    // Panic and injury come from the CrowdHealth layer, which every simulation carries (without a
-    // <CrowdHealth> element it measures with the defaults and nobody panics); nothing is missing
-    // when simulating. Replays have positions only: render.cpp refuses these colourings there.
-    (void)sim;
-    (void)c;
-    return "";
-}
-
 std::vector<double> agentValues(ch::Simulation& sim, Colouring c) {
     const ch::AgentStore& a = sim.agents();
     std::vector<double> v(a.size(), 0.0);

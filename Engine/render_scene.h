@@ -52,13 +52,6 @@ struct GoalMark {
 };
 std::vector<GoalMark> goalMarks(const ch::ScenarioSpec& spec);
 
-/// The per-agent field `name` (e.g. "panic") of the first component of any policy that provides
-/// it, or nullptr. The CrowdHealth layer exposes "panic" and "injury" this way.
-const std::vector<double>* componentField(const ch::Simulation& sim, const std::string& name);
-
-/// Explains why a colouring cannot be shown for this simulation (empty when it can).
-std::string colouringProblem(const ch::Simulation& sim, Colouring c);
-
 /// The value each active agent is coloured by (index = AgentStore index): density measured with
 /// Poly6 (h = 1 m, walls included, as in metrics.csv), |contact acceleration| (m/s²), or the
 /// panic/injury fields; zeros for None. Calls sim.measureDensity() for Density.

@@ -89,23 +89,3 @@ ch::AgentStore line(const std::vector<ch::Vec2>& velocities) {
     return a;
 }
 }  // namespace
-
-BOOST_AUTO_TEST_CASE(crowd_pressure_is_zero_for_a_uniform_flow_and_grows_with_velocity_spread) {
-    const ch::World world;  // infinite, no obstacles
-    const std::vector<double> density(4, 2.0);
-    const auto uniform = ch::crowdPressure(line({{1, 0}, {1, 0}, {1, 0}, {1, 0}}), density, world);
-    for (const double p : uniform) BOOST_TEST(std::abs(p) < 1e-12);
-
-    const auto mixed = ch::crowdPressure(line({{1, 0}, {-1, 0}, {1, 0}, {-1, 0}}), density, world);
-    const auto mixedTwice = ch::crowdPressure(line({{2, 0}, {-2, 0}, {2, 0}, {-2, 0}}), density, world);
-    for (std::size_t i = 0; i < mixed.size(); ++i) {
-        BOOST_TEST(mixed[i] > 0.1);
-        BOOST_TEST(mixed[i] <= 2.0 * 1.0 + 1e-12);  // ρ · Var ≤ ρ · max |v − v̄|² = 2 · 1 (means near 0)
-        // Variance scales with the square of the velocities.
-        BOOST_TEST(std::abs(mixedTwice[i] - 4.0 * mixed[i]) < 1e-9 * mixedTwice[i]);
-    }
-    // Agents farther apart than h = 1 m do not see each other: each alone has no spread.
-    ch::AgentStore far = line({{1, 0}, {-1, 0}});
-    far.pos[1] = ch::Vec2(5, 0);
-    for (const double p : ch::crowdPressure(far, {2.0, 2.0}, world)) BOOST_TEST(std::abs(p) < 1e-12);
-}

@@ -183,16 +183,8 @@ void Viewer::cycleColouring() {
                                Colouring::None};
     int k = 0;
     while (order[k] != colouring_) ++k;
-    for (int n = 1; n <= 5; ++n) {
-        const Colouring c = order[(k + n) % 5];
-        const std::string problem = chrender::colouringProblem(*sim_, c);
-        if (problem.empty()) {
-            colouring_ = c;
-            std::cout << "colouring: " << chrender::colouringName(c) << "\n" << std::flush;
-            return;
-        }
-        std::cout << "(skipping " << chrender::colouringName(c) << ": " << problem << ")\n";
-    }
+    colouring_ = order[(k + 1) % 5];
+    std::cout << "colouring: " << chrender::colouringName(colouring_) << "\n" << std::flush;
 }
 
 void Viewer::fitView(int w, int h) {
@@ -545,10 +537,6 @@ int main(int argc, char* argv[]) {
         sim = std::make_unique<ch::Simulation>(*spec);
     } catch (const std::exception& e) {
         std::cerr << o.scenario << ": error: " << e.what() << "\n";
-        return 2;
-    }
-    if (const std::string p = chrender::colouringProblem(*sim, o.colouring); !p.empty()) {
-        std::cerr << "crowdhealth-viewer: error: " << p << "\n";
         return 2;
     }
     sim->setThreads(static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));

@@ -171,13 +171,17 @@ void HealthLayer::beginStep(AgentStore& agents, const PointGrid& grid, double ti
     const std::size_t n = agents.size();
     nextPanic_.resize(n);
     const std::ptrdiff_t count = static_cast<std::ptrdiff_t>(n);
+    // Contagion can only raise an agent towards a more panicked neighbour: while nobody panics
+    // (the usual case) the neighbour search per agent is skipped.
+    double maxPanic = 0;
+    for (std::size_t i = 0; i < n; ++i) maxPanic = std::max(maxPanic, records_[slot_[i]].panic);
     // Panic: each agent reads the frozen levels of the previous step, writes only its own.
 #pragma omp parallel for schedule(static) if (count >= kParallelMin)
     for (std::ptrdiff_t ii = 0; ii < count; ++ii) {
         const std::size_t i = static_cast<std::size_t>(ii);
         const HealthParams& hp = params_[static_cast<std::size_t>(agents.policy[i])];
         double p = records_[slot_[i]].panic;
-        if (hp.contagionRate > 0 && hp.contagionRadius > 0) {
+        if (hp.contagionRate > 0 && hp.contagionRadius > 0 && maxPanic > p && maxPanic >= hp.contagionThreshold) {
             double pmax = 0;
             grid.forEachWithin(agents.pos[i], hp.contagionRadius, [&](int j, const Vec2&, double) {
                 if (static_cast<std::size_t>(j) == i) return;
@@ -249,9 +253,7 @@ void HealthLayer::steerPreferred(AgentStore& agents, const PointGrid& grid, doub
         if (hp.erratic && hp.erraticAngle > 0) {
             const auto interval = static_cast<std::uint64_t>(std::floor(time / hp.erraticInterval + 1e-9));
             Rng rng(seed, static_cast<std::uint64_t>(agents.id[i]), interval, kStreamPanic);
-            const double angle = rng.normal() * panic * hp.erraticAngle * kPi / 180.0;
-            const double c = std::cos(angle), s = std::sin(angle);
-            dir = Vec2(c * dir.x() - s * dir.y(), s * dir.x() + c * dir.y());
+            dir = rotated(dir, rng.normal() * panic * hp.erraticAngle * kPi / 180.0);
         }
         agents.prefVel[i] = dir * speed;
     }

@@ -121,41 +121,6 @@ void writeFileAtomic(const fs::path& target, std::string_view content) {
 
 // ---- metrics -------------------------------------------------------------------------------
 
-std::vector<double> crowdPressure(const AgentStore& agents, const std::vector<double>& density,
-                                  const World& world, double h) {
-    const std::size_t n = agents.size();
-    std::vector<double> pressure(n, 0.0);
-    if (n == 0) return pressure;
-    PointGrid grid;
-    grid.build(agents.pos, h, world.periodic(), world.spec().width, world.spec().height);
-    const long count = static_cast<long>(n);
-    // Each iteration writes only pressure[i] and sums its neighbours in the grid's fixed visit
-    // order, so the result does not depend on the number of threads.
-#pragma omp parallel for schedule(static)
-    for (long ii = 0; ii < count; ++ii) {
-        const std::size_t i = static_cast<std::size_t>(ii);
-        // Two passes (mean, then squared deviations) rather than E[v²] − E[v]², which cancels
-        // badly when everyone walks at nearly the same velocity.
-        double sumW = 0.0;
-        Vec2 sumWV(0.0, 0.0);
-        grid.forEachWithin(agents.pos[i], h, [&](int j, const Vec2&, double d2) {
-            const double w = kernels::poly6(d2, h);
-            sumW += w;
-            sumWV += w * agents.vel[static_cast<std::size_t>(j)];
-        });
-        if (sumW <= 0.0) continue;
-        const Vec2 mean = sumWV / sumW;
-        double sumWDev = 0.0;
-        grid.forEachWithin(agents.pos[i], h, [&](int j, const Vec2&, double d2) {
-            const double w = kernels::poly6(d2, h);
-            sumWDev += w * (agents.vel[static_cast<std::size_t>(j)] - mean).squaredNorm();
-        });
-        const double rho = i < density.size() ? density[i] : 0.0;
-        pressure[i] = rho * (sumWDev / sumW);
-    }
-    return pressure;
-}
-
 /// The per-agent "rest_density" field of the component that provides it in each policy
 /// (nullptr where the policy has none).
 static std::vector<const std::vector<double>*> restDensityFields(const Simulation& sim) {

@@ -243,6 +243,10 @@ void Simulation::applySchedule() {
         const RampSpec& r = ramp.spec;
         if (t < r.start - tol && !ramp.first) continue;  // a later ramp of the same target waits for its start
         const double v = t >= r.end - tol ? r.to : (t <= r.start + tol ? r.from : r.valueAt(t));
+        // Held values are written once: outside its window a ramp costs nothing per step (agents
+        // activated later read the value from their spec, updated below).
+        if (v == ramp.applied) continue;
+        ramp.applied = v;
         if (r.target == RampSpec::Target::Agents) {
             auto apply = [&](std::vector<double>& active, double AgentSpec::*member, std::vector<double>* base) {
                 for (double& x : active) x = v;

@@ -119,13 +119,6 @@ struct MetricsRow {
 /// reads the frozen state; `h` (m) is the smoothing length of the density and pressure kernels.
 MetricsRow measureMetrics(Simulation& sim, double h = 1.0);
 
-/// Per-agent crowd pressure (1/s²) after Helbing et al. 2007 (kept for callers; metrics.csv uses
-/// the grid version of crowdhealth/safety.h, which follows the paper's definition — Gaussian
-/// local averages at fixed points, persons/m² without wall particles — more closely): ρ_i · Σ_j w_ij |v_j − v̄_i|² / Σ_j w_ij
-/// with Poly6 weights w_ij = W(|x_j − x_i|, h) over the agents within h (i included) and v̄_i the
-/// weighted mean velocity. `density` holds ρ_i per agent (same index as `agents`).
-std::vector<double> crowdPressure(const AgentStore& agents, const std::vector<double>& density,
-                                  const World& world, double h = 1.0);
 
 /// The largest values over the rows of metrics.csv (so sampled every metrics interval, not every
 /// step: a peak between two rows is not seen).

@@ -25,6 +25,7 @@
 
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -164,6 +165,7 @@ private:
         std::vector<int> policies;           ///< CrowdHealth target: policy indices
         int column = 0;                      ///< index into scheduleColumns_
         bool first = false;                  ///< the first ramp of its target: holds `from` before its start
+        double applied = std::numeric_limits<double>::quiet_NaN();  ///< last value written
     };
     std::vector<Ramp> ramps_;
     std::vector<std::string> scheduleColumns_;
