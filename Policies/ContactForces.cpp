@@ -59,7 +59,7 @@ Vec2 ContactForces::wallsVanToll(std::size_t i, const StepContext& ctx, std::vec
     const Vec2& x = ctx.agents.pos[i];
     const double D = ctx.agents.radius[i];
     Vec2 a(0, 0);
-    ctx.world.segmentsNear(x, D, near);
+    ctx.segmentsNear(i, D, near);
     for (int s : near) {
         const Segment& seg = ctx.world.segments()[static_cast<std::size_t>(s)];
         const Vec2 diff = x - closestPointOnSegment(x, seg.a, seg.b);
@@ -75,7 +75,7 @@ Vec2 ContactForces::wallsPrototype(std::size_t i, const StepContext& ctx, std::v
     const Vec2& x = ctx.agents.pos[i];
     const double D = ctx.agents.radius[i];
     // Look a little farther than the radius so a centre inside a thick wall still finds its way out.
-    ctx.world.segmentsNear(x, std::max(1.0, 2.0 * D), near);
+    ctx.segmentsNear(i, std::max(1.0, 2.0 * D), near);
     Vec2 a(0, 0);
     std::size_t k = 0;
     while (k < near.size()) {
@@ -136,9 +136,7 @@ void ContactForces::prepare(const StepContext& ctx) {
             const std::size_t i = static_cast<std::size_t>(ii);
             const double D = A.radius[i];
             Vec2 a(0, 0);
-            ctx.grid.forEachWithin(A.pos[i], D + maxRadius, [&](int j, const Vec2& off, double d2) {
-                if (static_cast<std::size_t>(j) == i) return;
-                const double r = std::sqrt(d2);
+            ctx.forEachNeighbour(i, D + maxRadius, [&](int j, const Vec2& off, double r) {
                 const double overlap = D + A.radius[j] - r;
                 if (overlap > 0 && r > 1e-12) a += agentStiffness_ * overlap * Vec2(-off / r);
             });

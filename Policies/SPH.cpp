@@ -129,15 +129,15 @@ void SPH::prepare(const StepContext& ctx) {
         for (std::ptrdiff_t ii = 0; ii < static_cast<std::ptrdiff_t>(n); ++ii) {
             const std::size_t i = static_cast<std::size_t>(ii);
             const Vec2& x = A.pos[i];
-            double rho = 0;  // the agent itself is in the grid (r = 0)
-            ctx.grid.forEachWithin(x, h, [&](int j, const Vec2&, double d2) { rho += A.mass[j] * K.poly6(d2); });
+            double rho = A.mass[i] * K.poly6(0.0);  // the agent itself (r = 0), then the others
+            ctx.forEachNeighbour(i, h, [&](int j, const Vec2& d, double) { rho += A.mass[j] * K.poly6(d.squaredNorm()); });
             if (useParticles) {
                 particleGrid.forEachWithin(x, h, [&](int, const Vec2&, double d2) { rho += K.poly6(d2); });
             } else if (analytic) {
                 // Walls are fluid at the agent's rest density (the previous step's; at the first
                 // step, the clamp of its density without walls).
                 const double rest = known_[i] ? restDensity_[i] : clampRest(rho);
-                ctx.world.segmentsNear(x, h, near);
+                ctx.segmentsNear(i, h, near);
                 wallarea::occludedAreas(x, h, ctx.world.segments(), near, pieces);
                 for (const wallarea::WallPiece& s : pieces) {
                     const double r = 0.5 * (s.distance + h);
@@ -228,7 +228,7 @@ Vec2 SPH::acceleration(const AgentQuery& q, const StepContext& ctx) const {
         // Per-thread scratch, reused from call to call (no allocation inside a step).
         thread_local std::vector<int> near;
         thread_local std::vector<wallarea::WallPiece> pieces;
-        ctx.world.segmentsNear(q.position, h, near);
+        ctx.segmentsNear(i, h, near);
         wallarea::occludedAreas(q.position, h, ctx.world.segments(), near, pieces);
         for (const wallarea::WallPiece& s : pieces) {
             if (s.distance < 1e-12) continue;

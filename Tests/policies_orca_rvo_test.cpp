@@ -80,8 +80,8 @@ struct Frame {
         grid.build(agents.pos, 5.0);
         return StepContext{agents, world, grid, dt, 0.0, 0, 1, 0.0};
     }
-    AgentQuery query(int i) const {
-        AgentQuery q;
+    test::OwnedQuery query(int i) const {
+        test::OwnedQuery q;
         q.i = i;
         q.position = agents.pos[i];
         q.velocity = agents.vel[i];
@@ -94,9 +94,10 @@ struct Frame {
         for (std::size_t j = 0; j < agents.size(); ++j)
             if (static_cast<int>(j) != i) {
                 const Vec2 d = agents.pos[j] - agents.pos[i];
-                q.agents.push_back(NeighbourAgent{static_cast<int>(j), d, d.norm()});
+                q.agentStore.push_back(NeighbourAgent{d, d.norm(), static_cast<int>(j)});
             }
-        for (std::size_t s = 0; s < world.segments().size(); ++s) q.segments.push_back(static_cast<int>(s));
+        for (std::size_t s = 0; s < world.segments().size(); ++s) q.segmentStore.push_back(static_cast<int>(s));
+        q.bind();
         return q;
     }
 };
@@ -356,7 +357,7 @@ BOOST_AUTO_TEST_CASE(orca_walks_along_a_wall_at_full_speed) {
     Frame f({box(-5, 0.5, 1.0, 1.5)});  // the box's lower face is 0.5 m left of the walking line
     const int i = f.add(Vec2(-3, 0), Vec2(20, 0), Vec2(1.3, 0));
     const StepContext ctx = f.context();
-    const AgentQuery q = f.query(i);
+    const test::OwnedQuery q = f.query(i);
     auto orcaC = make("ORCA");
     const std::optional<Vec2> v = orcaC->globalMinimum(q, ctx);
     BOOST_TEST_REQUIRE(v.has_value());
@@ -373,7 +374,7 @@ BOOST_AUTO_TEST_CASE(orca_cost_prefers_feasible_velocities) {
     const int i = f.add(Vec2(0, 0), Vec2(10, 0), Vec2(1.3, 0));
     f.add(Vec2(3, 0.1), Vec2(-10, 0.1), Vec2(-1.3, 0));
     const StepContext ctx = f.context();
-    const AgentQuery q = f.query(i);
+    const test::OwnedQuery q = f.query(i);
     auto orcaC = make("ORCA");
     std::vector<orca::HalfPlane> planes;
     static_cast<ORCA&>(*orcaC).halfPlanes(q, ctx, planes);
@@ -400,7 +401,7 @@ BOOST_AUTO_TEST_CASE(orca_gradient_matches_cost_differences) {
     f.add(Vec2(3.0, 0.5), Vec2(-10, 0.5), Vec2(-1.2, 0));
     f.add(Vec2(1.5, 3.0), Vec2(1.5, -10), Vec2(0, -1.0));
     const StepContext ctx = f.context();
-    const AgentQuery q = f.query(i);
+    const test::OwnedQuery q = f.query(i);
     auto orcaC = make("ORCA");
     std::vector<orca::HalfPlane> planes;
     const std::size_t walls = static_cast<ORCA&>(*orcaC).halfPlanes(q, ctx, planes);
@@ -441,7 +442,7 @@ BOOST_AUTO_TEST_CASE(rvo_penalty_is_the_papers) {
     const int i = f.add(Vec2(0, 0), Vec2(10, 0), Vec2(1.3, 0));
     f.add(Vec2(4, 0), Vec2(-10, 0), Vec2(-1.3, 0));
     const StepContext ctx = f.context();
-    const AgentQuery q = f.query(i);
+    const test::OwnedQuery q = f.query(i);
     auto rvo = make("RVO", {{"w", 2.0}});
     const auto& model = static_cast<const RVO&>(*rvo);
     // Head-on at v' = v_A = (1.3, 0): reciprocal velocity 2v' − v_A = v', closing speed 2.6 m/s over

@@ -103,8 +103,8 @@ struct Frame {
         return StepContext{agents, world, grid, dt, 0.0, 0, 1, relaxation};
     }
     /// Query for agent i with every other agent and every wall segment as neighbours.
-    AgentQuery query(int i) const {
-        AgentQuery q;
+    test::OwnedQuery query(int i) const {
+        test::OwnedQuery q;
         q.i = i;
         q.position = agents.pos[i];
         q.velocity = agents.vel[i];
@@ -117,9 +117,10 @@ struct Frame {
         for (std::size_t j = 0; j < agents.size(); ++j)
             if (static_cast<int>(j) != i) {
                 const Vec2 d = agents.pos[j] - agents.pos[i];
-                q.agents.push_back(NeighbourAgent{static_cast<int>(j), d, d.norm()});
+                q.agentStore.push_back(NeighbourAgent{d, d.norm(), static_cast<int>(j)});
             }
-        for (std::size_t s = 0; s < world.segments().size(); ++s) q.segments.push_back(static_cast<int>(s));
+        for (std::size_t s = 0; s < world.segments().size(); ++s) q.segmentStore.push_back(static_cast<int>(s));
+        q.bind();
         return q;
     }
 };
@@ -361,7 +362,7 @@ BOOST_AUTO_TEST_CASE(karamouzas_prefers_preferred_velocity_and_penalises_collisi
     const int i = f.add({0, 0}, {10, 0}, {1.3, 0});
     const StepContext ctx = f.context();
     auto c = make("Karamouzas");
-    const AgentQuery q = f.query(i);
+    const test::OwnedQuery q = f.query(i);
     // Alone: v_pref has zero cost; anything outside the narrow admissible set ranks after every
     // admissible velocity, the nearer to the set the better.
     BOOST_TEST(c->cost(q.prefVelocity, q, ctx) == 0.0, boost::test_tools::tolerance(1e-12));
@@ -377,7 +378,7 @@ BOOST_AUTO_TEST_CASE(karamouzas_prefers_preferred_velocity_and_penalises_collisi
     const int a = g.add({0, 0}, {10, 0}, {1.3, 0});
     g.add({4, 0}, {4, 0}, {0, 0});
     const StepContext ctx2 = g.context();
-    const AgentQuery q2 = g.query(a);
+    const test::OwnedQuery q2 = g.query(a);
     auto& k = dynamic_cast<Karamouzas&>(*c);
     BOOST_TEST(k.timeToFirstCollision(q2.prefVelocity, q2, ctx2) == (4 - 0.6) / 1.3, boost::test_tools::tolerance(1e-9));
     const double straight = c->cost(q2.prefVelocity, q2, ctx2);
@@ -393,7 +394,7 @@ BOOST_AUTO_TEST_CASE(moussaid_free_distance_and_choice) {
     const int i = f.add({0, 0}, {10, 0}, {1.3, 0});
     f.add({5, 0}, {5, 0}, {0, 0});  // standing in the way
     const StepContext ctx = f.context();
-    const AgentQuery q = f.query(i);
+    const test::OwnedQuery q = f.query(i);
     auto c = make("Moussaid");
     auto& m = dynamic_cast<Moussaid&>(*c);
     BOOST_TEST(m.distanceToCollision({1, 0}, 1.3, q, ctx) == 4.4, boost::test_tools::tolerance(1e-9));
@@ -418,7 +419,7 @@ BOOST_AUTO_TEST_CASE(moussaid_free_distance_and_choice) {
     const int j = g.add({0, 0}, {10, 0}, {0, 0});
     g.add({0.8, 0}, {0.8, 0}, {0, 0});
     const StepContext ctx2 = g.context();
-    const AgentQuery q2 = g.query(j);
+    const test::OwnedQuery q2 = g.query(j);
     const double at04 = c->cost({0.4, 0}, q2, ctx2);
     BOOST_TEST(at04 < c->cost({0.3, 0}, q2, ctx2));
     BOOST_TEST(at04 < c->cost({0.5, 0}, q2, ctx2));
@@ -427,7 +428,7 @@ BOOST_AUTO_TEST_CASE(moussaid_free_distance_and_choice) {
     const int k = h.add({0, 0}, {10, 0}, {0, 0});
     h.add({0.5, 0}, {0.5, 0}, {0, 0});
     const StepContext ctx3 = h.context();
-    const AgentQuery q3 = h.query(k);
+    const test::OwnedQuery q3 = h.query(k);
     for (int a = 0; a < 360; a += 15) {
         const Vec2 v = rotated(Vec2(1.0, 0), a * kPi / 180);
         BOOST_TEST(std::isfinite(c->cost(v, q3, ctx3)));
@@ -494,7 +495,7 @@ BOOST_AUTO_TEST_CASE(powerlaw_gradient_matches_cost_differences) {
     const int i = f.add({0, 0}, {10, 0}, {1.2, 0.1});
     f.add({3, 0.4}, {-10, 0}, {-1.2, 0});
     const StepContext ctx = f.context();
-    const AgentQuery q = f.query(i);
+    const test::OwnedQuery q = f.query(i);
     auto c = make("PowerLaw");
     BOOST_TEST(dynamic_cast<PowerLaw&>(*c).acceleration(q, ctx).x() < 0);  // braking: the other is coming head-on
     Rng rng(7);
@@ -515,7 +516,7 @@ BOOST_AUTO_TEST_CASE(pledestrians_gradient_matches_cost_differences) {
     const int i = f.add({0, 0}, {10, 3}, {1.0, 0.2});
     f.add({4, 1}, {-10, 1}, {-1.0, 0});
     const StepContext ctx = f.context();
-    const AgentQuery q = f.query(i);
+    const test::OwnedQuery q = f.query(i);
     auto c = make("PLEdestrians", {{"t_min", 0.5}, {"t_max", 3}});
     Rng rng(3);
     const double h = 1e-6;
@@ -539,7 +540,7 @@ BOOST_AUTO_TEST_CASE(pledestrians_gradient_matches_cost_differences) {
     const int j = g.add({0, 0}, {10, 3}, {1.0, 0.2});
     g.add({1.6, 0.4}, {-10, 0.4}, {-1.0, 0});
     const StepContext ctx2 = g.context();
-    const AgentQuery q2 = g.query(j);
+    const test::OwnedQuery q2 = g.query(j);
     BOOST_TEST(std::isinf(c->cost(Vec2(1.6, 0.4).normalized() * 1.8, q2, ctx2)));
     BOOST_TEST((c->gradient(Vec2(1.6, 0.4).normalized() * 1.8, q2, ctx2).norm() == 0.0));
 }
@@ -551,7 +552,7 @@ BOOST_AUTO_TEST_CASE(pledestrians_closed_form_minimum) {
         Frame f;
         const int i = f.add({0, 0}, goal, {0.5, 0});
         const StepContext ctx = f.context();
-        const AgentQuery q = f.query(i);
+        const test::OwnedQuery q = f.query(i);
         const auto m = c->globalMinimum(q, ctx);
         BOOST_TEST_REQUIRE(m.has_value());
         if (goal.norm() > 3 * uStar) BOOST_TEST(m->norm() == uStar, boost::test_tools::tolerance(1e-12));

@@ -100,7 +100,7 @@ struct Scene {
     AgentStore agents;
     World world;
     PointGrid grid;
-    AgentQuery q;
+    test::OwnedQuery q;
 
     Scene() = default;
     /// World holds pointers into itself: build it in place, never copy or move it.
@@ -125,12 +125,13 @@ struct Scene {
         q.prefSpeed = kPref;
         q.maxSpeed = kMax;
         q.maxAcceleration = 5;
-        q.agents.clear();
+        q.agentStore.clear();
         for (std::size_t j = 1; j < agents.size(); ++j) {
             const Vec2 off = agents.pos[j] - agents.pos[0];
-            if (off.norm() <= range) q.agents.push_back({static_cast<int>(j), off, off.norm()});
+            if (off.norm() <= range) q.agentStore.push_back(NeighbourAgent{off, off.norm(), static_cast<int>(j)});
         }
-        world.segmentsNear(q.position, range, q.segments);
+        world.segmentsNear(q.position, range, q.segmentStore);
+        q.bind();
         return StepContext{agents, world, grid, 0.1, 0.0, 0, 1, 0.0};
     }
 };

@@ -35,17 +35,18 @@ struct Frozen {
     }
     void rebuild() { grid.build(agents.pos, 2.0); }
     StepContext ctx() const { return StepContext{agents, world, grid, dt, step * dt, step, 1, 0.5}; }
-    AgentQuery query(std::size_t i, double range = 2.0) const {
-        AgentQuery q;
+    test::OwnedQuery query(std::size_t i, double range = 2.0) const {
+        test::OwnedQuery q;
         q.i = static_cast<int>(i);
         q.position = agents.pos[i];
         q.velocity = agents.vel[i];
         q.radius = agents.radius[i];
         q.mass = agents.mass[i];
         grid.forEachWithin(q.position, range, [&](int j, const Vec2& d, double d2) {
-            if (j != q.i) q.agents.push_back(NeighbourAgent{j, d, std::sqrt(d2)});
+            if (j != q.i) q.agentStore.push_back(NeighbourAgent{d, std::sqrt(d2), j});
         });
-        world.segmentsNear(q.position, range, q.segments);
+        world.segmentsNear(q.position, range, q.segmentStore);
+        q.bind();
         return q;
     }
 };
@@ -348,7 +349,7 @@ BOOST_AUTO_TEST_CASE(particle_walls_take_part_in_the_viscosity) {
                         {"wallViscosity", 0}});
     on->prepare(f.ctx());
     off->prepare(f.ctx());
-    AgentQuery q = f.query(0);
+    test::OwnedQuery q = f.query(0);
     q.velocity = f.agents.vel[0];
     const Vec2 a = on->acceleration(q, f.ctx());
     BOOST_TEST(a.x() < -0.1);

@@ -14,6 +14,29 @@
 
 namespace ch::test {
 
+/// An AgentQuery that owns the neighbour arrays its spans show (tests fill them by hand). Fill
+/// `agentStore`/`segmentStore`, then call bind(). Copies re-point their spans at their own arrays;
+/// never slice one into a plain AgentQuery that outlives it.
+struct OwnedQuery : AgentQuery {
+    std::vector<NeighbourAgent> agentStore;
+    std::vector<int> segmentStore;
+
+    OwnedQuery() = default;
+    OwnedQuery(const OwnedQuery& o) : AgentQuery(o), agentStore(o.agentStore), segmentStore(o.segmentStore) { bind(); }
+    OwnedQuery& operator=(const OwnedQuery& o) {
+        AgentQuery::operator=(o);
+        agentStore = o.agentStore;
+        segmentStore = o.segmentStore;
+        bind();
+        return *this;
+    }
+    /// Points the spans at the owned arrays (after filling or changing them).
+    void bind() {
+        agents = agentStore;
+        segments = segmentStore;
+    }
+};
+
 /// A component spec with every default of its table and the given overrides.
 inline ComponentSpec component(const std::string& name, const std::map<std::string, double>& values = {},
                                double coeff = 1.0) {

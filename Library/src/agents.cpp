@@ -5,8 +5,9 @@
 
 namespace ch {
 
-std::size_t AgentStore::add(const AgentSpec& s, int policyIndex) {
+std::size_t AgentStore::add(const AgentSpec& s, int policyIndex, int specPosition) {
     id.push_back(s.id);
+    specIndex.push_back(specPosition);
     policy.push_back(policyIndex);
     radius.push_back(s.radius);
     prefSpeed.push_back(s.prefSpeed);
@@ -44,25 +45,11 @@ void compact(std::vector<T>& v, const std::vector<unsigned char>& remove) {
 }  // namespace
 
 void AgentStore::removeMarked(const std::vector<unsigned char>& remove) {
-    compact(id, remove);
-    compact(policy, remove);
-    compact(radius, remove);
-    compact(prefSpeed, remove);
-    compact(maxSpeed, remove);
-    compact(basePrefSpeed, remove);
-    compact(baseMaxSpeed, remove);
-    compact(maxAcceleration, remove);
-    compact(mass, remove);
-    compact(goalRadius, remove);
-    compact(removeAtGoal, remove);
-    compact(hasGoal, remove);
-    compact(goal, remove);
-    compact(pos, remove);
-    compact(vel, remove);
-    compact(prefVel, remove);
-    compact(viewDir, remove);
-    compact(density, remove);
-    compact(contactAccel, remove);
+    forEachColumn([&](auto& column) { compact(column, remove); });
+}
+
+void AgentStore::reserve(std::size_t n) {
+    forEachColumn([n](auto& column) { column.reserve(n); });
 }
 
 bool AgentStore::atGoal(std::size_t i) const {

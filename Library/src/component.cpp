@@ -7,6 +7,21 @@
 
 namespace ch {
 
+void StepContext::segmentsNear(std::size_t i, double radius, std::vector<int>& out) const {
+    if (lists == nullptr || i >= lists->size() || radius > lists->radius(i)) {
+        world.segmentsNear(agents.pos[i], radius, out);
+        return;
+    }
+    // The list is a superset; the segment grid's own test picks the same segments, in order.
+    out.clear();
+    const double r2 = radius * radius;
+    const Vec2& p = agents.pos[i];
+    for (int s : lists->segments(i)) {
+        const Segment& seg = world.segments()[static_cast<std::size_t>(s)];
+        if (distanceToSegmentSquared(p, seg.a, seg.b) <= r2) out.push_back(s);
+    }
+}
+
 double timeToFirstCollision(const Vec2& v, const AgentQuery& q, const StepContext& ctx, double range) {
     const AgentStore& A = ctx.agents;
     double first = kInf;

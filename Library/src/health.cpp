@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <unordered_map>
 
 namespace ch {
 
@@ -123,14 +124,12 @@ double HealthParams::get(const std::string& name) const {
 
 void HealthLayer::init(const ScenarioSpec& spec) {
     records_.assign(spec.agents.size(), HealthRecord{});
-    recordOfId_.clear();
     std::unordered_map<int, std::size_t> policyIndex;
     for (std::size_t p = 0; p < spec.policies.size(); ++p) policyIndex.emplace(spec.policies[p].id, p);
     for (std::size_t k = 0; k < spec.agents.size(); ++k) {
         records_[k].id = spec.agents[k].id;
         if (const auto it = policyIndex.find(spec.agents[k].policyId); it != policyIndex.end())
             records_[k].policy = it->second;
-        recordOfId_.emplace(spec.agents[k].id, k);
     }
     params_.clear();
     hasElement_.clear();
@@ -145,47 +144,34 @@ void HealthLayer::init(const ScenarioSpec& spec) {
     }
     events_ = spec.panicEvents;
     eventFired_.assign(events_.size(), 0);
-    slot_.clear();
     crush_ = CrushSummary{};
 }
 
-void HealthLayer::refreshSlots(const AgentStore& agents) {
-    const std::size_t n = agents.size();
-    bool ok = slot_.size() == n;
-    for (std::size_t i = 0; ok && i < n; ++i) ok = records_[slot_[i]].id == agents.id[i];
-    if (ok) return;
-    slot_.resize(n);
-    for (std::size_t i = 0; i < n; ++i) {
-        slot_[i] = recordOfId_.at(agents.id[i]);
-        records_[slot_[i]].seen = true;
-    }
-}
+void HealthLayer::activated(const AgentStore& agents, std::size_t i) { record(agents, i).seen = true; }
 
 const HealthRecord& HealthLayer::recordOf(const AgentStore& agents, std::size_t i) const {
-    if (i < slot_.size() && records_[slot_[i]].id == agents.id[i]) return records_[slot_[i]];
-    return records_[recordOfId_.at(agents.id[i])];  // not synced yet: look it up
+    return records_[static_cast<std::size_t>(agents.specIndex[i])];
 }
 
 void HealthLayer::beginStep(AgentStore& agents, const PointGrid& grid, double time, double dt) {
-    refreshSlots(agents);
     const std::size_t n = agents.size();
     nextPanic_.resize(n);
     const std::ptrdiff_t count = static_cast<std::ptrdiff_t>(n);
     // Contagion can only raise an agent towards a more panicked neighbour: while nobody panics
     // (the usual case) the neighbour search per agent is skipped.
     double maxPanic = 0;
-    for (std::size_t i = 0; i < n; ++i) maxPanic = std::max(maxPanic, records_[slot_[i]].panic);
+    for (std::size_t i = 0; i < n; ++i) maxPanic = std::max(maxPanic, record(agents, i).panic);
     // Panic: each agent reads the frozen levels of the previous step, writes only its own.
 #pragma omp parallel for schedule(static) if (count >= kParallelMin)
     for (std::ptrdiff_t ii = 0; ii < count; ++ii) {
         const std::size_t i = static_cast<std::size_t>(ii);
         const HealthParams& hp = params_[static_cast<std::size_t>(agents.policy[i])];
-        double p = records_[slot_[i]].panic;
+        double p = record(agents, i).panic;
         if (hp.contagionRate > 0 && hp.contagionRadius > 0 && maxPanic > p && maxPanic >= hp.contagionThreshold) {
             double pmax = 0;
             grid.forEachWithin(agents.pos[i], hp.contagionRadius, [&](int j, const Vec2&, double) {
                 if (static_cast<std::size_t>(j) == i) return;
-                const double pj = records_[slot_[static_cast<std::size_t>(j)]].panic;
+                const double pj = record(agents, static_cast<std::size_t>(j)).panic;
                 if (pj >= hp.contagionThreshold && pj > pmax) pmax = pj;
             });
             if (pmax > p) p += std::min(1.0, hp.contagionRate * dt) * (pmax - p);
@@ -204,7 +190,7 @@ void HealthLayer::beginStep(AgentStore& agents, const PointGrid& grid, double ti
                 nextPanic_[i] = std::max(nextPanic_[i], std::clamp(ev.strength, 0.0, 1.0));
     }
     for (std::size_t i = 0; i < n; ++i) {
-        HealthRecord& r = records_[slot_[i]];
+        HealthRecord& r = record(agents, i);
         r.panic = nextPanic_[i];
         r.peakPanic = std::max(r.peakPanic, r.panic);
         const HealthParams& hp = params_[static_cast<std::size_t>(agents.policy[i])];
@@ -229,7 +215,7 @@ void HealthLayer::steerPreferred(AgentStore& agents, const PointGrid& grid, doub
     for (std::ptrdiff_t ii = 0; ii < count; ++ii) {
         const std::size_t i = static_cast<std::size_t>(ii);
         const HealthParams& hp = params_[static_cast<std::size_t>(agents.policy[i])];
-        const double panic = records_[slot_[i]].panic;
+        const double panic = record(agents, i).panic;
         const Vec2 pref = agents.prefVel[i];
         const double speed = pref.norm();
         if (!(panic > 0) || !(speed > 0)) continue;
@@ -260,11 +246,10 @@ void HealthLayer::steerPreferred(AgentStore& agents, const PointGrid& grid, doub
 }
 
 void HealthLayer::endStep(const AgentStore& agents, double time, double dt) {
-    refreshSlots(agents);
     const std::size_t n = agents.size();
     bool anyAbove = false;
     for (std::size_t i = 0; i < n; ++i) {
-        HealthRecord& r = records_[slot_[i]];
+        HealthRecord& r = record(agents, i);
         const HealthParams& hp = params_[static_cast<std::size_t>(agents.policy[i])];
         const double a = agents.contactAccel[i].norm();
         const double force = hp.bodyMass * agents.mass[i] * a;
@@ -309,10 +294,7 @@ void HealthLayer::endStep(const AgentStore& agents, double time, double dt) {
     }
 }
 
-void HealthLayer::markExit(AgentId id, double time) {
-    const auto it = recordOfId_.find(id);
-    if (it != recordOfId_.end()) records_[it->second].exitTime = time;
-}
+void HealthLayer::markExit(const AgentStore& agents, std::size_t i, double time) { record(agents, i).exitTime = time; }
 
 std::size_t HealthLayer::injuredCount() const {
     return static_cast<std::size_t>(

@@ -24,13 +24,14 @@ int finePerCoarseOf(const ScenarioSpec& s) {
 }
 }  // namespace
 
-Simulation::Simulation(const ScenarioSpec& spec)
-    : spec_(spec),
-      world_(spec.world, spec.obstacles),
-      dtCoarse_(spec.deltaTime),
-      dtFine_(spec.fineStep()),
-      finePerCoarse_(finePerCoarseOf(spec)),
-      endTime_(spec.endTime) {
+Simulation::Simulation(ScenarioSpec specIn)
+    : spec_(std::move(specIn)),
+      world_(spec_.world, spec_.obstacles),
+      dtCoarse_(spec_.deltaTime),
+      dtFine_(spec_.fineStep()),
+      finePerCoarse_(finePerCoarseOf(spec_)),
+      endTime_(spec_.endTime) {
+    const ScenarioSpec& spec = spec_;
     if (!(dtCoarse_ > 0) || !(dtFine_ > 0)) throw std::runtime_error("delta_time must be positive");
 
     std::map<int, int> policyIndex;
@@ -63,10 +64,10 @@ Simulation::Simulation(const ScenarioSpec& spec)
     std::stable_sort(pending_.begin(), pending_.end(), [&](std::size_t a, std::size_t b) {
         return spec.agents[a].startTime < spec.agents[b].startTime;
     });
+    agents_.reserve(spec.agents.size());
     health_.init(spec_);
     resolveRamps();
     activatePending();
-    health_.sync(agents_);
     applySchedule();
 }
 
@@ -86,7 +87,8 @@ void Simulation::activatePending() {
     const std::size_t before = agents_.size();
     while (nextPending_ < pending_.size() && spec_.agents[pending_[nextPending_]].startTime <= now) {
         const std::size_t k = pending_[nextPending_++];
-        agents_.add(spec_.agents[k], agentPolicy_[k]);
+        const std::size_t i = agents_.add(spec_.agents[k], agentPolicy_[k], static_cast<int>(k));
+        health_.activated(agents_, i);
     }
     if (agents_.size() != before) {
         std::vector<int> previous(agents_.size(), -1);
@@ -106,7 +108,7 @@ void Simulation::stepCoarse() {
     for (int k = 0; k < finePerCoarse_; ++k) stepFine();
 }
 
-void Simulation::gatherQuery(std::size_t i, double range, AgentQuery& q) const {
+void Simulation::gatherQuery(std::size_t i, AgentQuery& q) const {
     q.i = static_cast<int>(i);
     q.position = agents_.pos[i];
     q.velocity = agents_.vel[i];
@@ -116,13 +118,8 @@ void Simulation::gatherQuery(std::size_t i, double range, AgentQuery& q) const {
     q.maxSpeed = agents_.maxSpeed[i];
     q.maxAcceleration = agents_.maxAcceleration[i];
     q.mass = agents_.mass[i];
-    std::vector<NeighbourAgent>& out = q.agents;
-    out.clear();
-    const int self = q.i;
-    grid_.forEachWithin(q.position, range, [&out, self](int j, const Vec2& d, double d2) {
-        if (j != self) out.push_back(NeighbourAgent{j, d, std::sqrt(d2)});
-    });
-    world_.segmentsNear(q.position, range, q.segments);
+    q.agents = lists_.agents(i);
+    q.segments = lists_.segments(i);
 }
 
 Vec2 Simulation::umansContactAcceleration(const AgentQuery& q, double scale) const {
@@ -144,7 +141,7 @@ Vec2 Simulation::umansContactAcceleration(const AgentQuery& q, double scale) con
 }
 
 const char* Simulation::phaseName(Phase p) {
-    static constexpr const char* names[] = {"activation", "grid", "preferred", "prepare",
+    static constexpr const char* names[] = {"activation", "neighbours", "preferred", "prepare",
                                             "forces", "integration", "removal"};
     return p < Phase::Count ? names[static_cast<std::size_t>(p)] : "?";
 }
@@ -162,8 +159,11 @@ void Simulation::stepFine() {
     const std::size_t n = agents_.size();
     const bool coarseBoundary = fineSteps_ % static_cast<std::uint64_t>(finePerCoarse_) == 0;
 
-    timed(Phase::Grid, [&] {
+    timed(Phase::Neighbours, [&] {
+        // One search per step: the grid, then every agent's neighbour list within its policy's
+        // range, which SPH density, contact and the per-agent calls all read.
         grid_.build(agents_.pos, maxRange_, world_.periodic(), spec_.world.width, spec_.world.height);
+        lists_.build(agents_.pos, grid_, world_, agents_.policy, policyRange_);
     });
     timed(Phase::Preferred, [&] {
         // CrowdHealth: panic update and the speeds in effect, then the preferred velocities, then
@@ -195,11 +195,7 @@ void Simulation::stepFine() {
     std::swap(agents_.contactAccel, nextContact_);
     ++fineSteps_;
     health_.endStep(agents_, time(), dtFine_);
-    const std::size_t evacuatedBefore = evacuations_.size();
     timed(Phase::Removal, [&] { removeFinished(); });
-    for (std::size_t e = evacuatedBefore; e < evacuations_.size(); ++e)
-        health_.markExit(evacuations_[e].id, evacuations_[e].time);
-    health_.sync(agents_);
     applySchedule();
 }
 
@@ -295,7 +291,7 @@ std::vector<double> Simulation::scheduleValues() const {
 
 StepContext Simulation::contextFor(const PolicyStep& s) const {
     const double dt = s.timing() == StepTiming::Coarse ? dtCoarse_ : dtFine_;
-    return StepContext{agents_, world_, grid_, dt, time(), fineSteps_, spec_.seed, s.spec().relaxationTime};
+    return StepContext{agents_, world_, grid_, dt, time(), fineSteps_, spec_.seed, s.spec().relaxationTime, &lists_};
 }
 
 void Simulation::setPreferredVelocities() {
@@ -320,7 +316,7 @@ void Simulation::evaluateAgents(bool coarseBoundary) {
         for (std::ptrdiff_t ii = 0; ii < static_cast<std::ptrdiff_t>(n); ++ii) {
             const std::size_t i = static_cast<std::size_t>(ii);
             const Policy& policy = policies_[agents_.policy[i]];
-            gatherQuery(i, policyRange_[agents_.policy[i]], q);
+            gatherQuery(i, q);
 
             Vec2 fine(0, 0);
             Vec2 reported(0, 0);  // contact accelerations reported by components (contactField)
@@ -384,6 +380,7 @@ void Simulation::removeFinished() {
         if (agents_.removeAtGoal[i] && agents_.hasGoal[i] && agents_.atGoal(i)) {
             remove[i] = 1;
             evacuations_.push_back(Evacuation{agents_.id[i], t});
+            health_.markExit(agents_, i, t);
             any = true;
         } else if (!world_.inside(agents_.pos[i])) {
             remove[i] = 1;

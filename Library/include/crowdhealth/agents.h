@@ -15,6 +15,7 @@ struct AgentSpec;
 struct AgentStore {
     // identity and attributes (cold-ish)
     std::vector<AgentId> id;
+    std::vector<int> specIndex;           ///< position in ScenarioSpec::agents (= HealthLayer record); -1: added by hand
     std::vector<int> policy;              ///< index into Simulation::policies()
     std::vector<double> radius;           ///< m
     std::vector<double> prefSpeed;        ///< m/s, in effect this step (base, raised by panic, lowered by injury)
@@ -41,12 +42,22 @@ struct AgentStore {
     std::size_t size() const { return id.size(); }
     bool empty() const { return id.empty(); }
 
-    /// Appends one agent from its spec; returns its index.
-    std::size_t add(const AgentSpec& spec, int policyIndex);
+    /// Appends one agent from its spec (at `specPosition` in ScenarioSpec::agents); returns its index.
+    std::size_t add(const AgentSpec& spec, int policyIndex, int specPosition = -1);
     /// Removes every agent i with remove[i] != 0, keeping the order of the others.
     void removeMarked(const std::vector<unsigned char>& remove);
     /// True when agent i is within its goal radius of its goal.
     bool atGoal(std::size_t i) const;
+    /// Room for n agents in every column (one allocation each instead of repeated doubling).
+    void reserve(std::size_t n);
+
+    /// Calls f(column) for every column above (a new column must be added here too).
+    template <class F>
+    void forEachColumn(F&& f) {
+        f(id), f(specIndex), f(policy), f(radius), f(prefSpeed), f(maxSpeed), f(basePrefSpeed), f(baseMaxSpeed);
+        f(maxAcceleration), f(mass), f(goalRadius), f(removeAtGoal), f(hasGoal), f(goal);
+        f(pos), f(vel), f(prefVel), f(viewDir), f(density), f(contactAccel);
+    }
 };
 
 }  // namespace ch

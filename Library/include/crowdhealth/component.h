@@ -15,12 +15,15 @@
 
 #include "crowdhealth/agents.h"
 #include "crowdhealth/grid.h"
+#include "crowdhealth/neighbours.h"
 #include "crowdhealth/params.h"
 #include "crowdhealth/rng.h"
 #include "crowdhealth/types.h"
 #include "crowdhealth/world.h"
 
+#include <cmath>
 #include <map>
+#include <span>
 #include <optional>
 #include <string>
 #include <vector>
@@ -29,21 +32,16 @@ namespace ch {
 
 struct ComponentInfo;
 
-/// A neighbouring agent of the query agent.
-struct NeighbourAgent {
-    int index;      ///< index j in AgentStore
-    Vec2 offset;    ///< pos[j] - pos[i], shortest on a torus (m)
-    double distance;  ///< |offset| (m)
-};
-
 /// The agent being evaluated, with its neighbourhood gathered once per step (within the largest
-/// range of the step's components). Components with a smaller range filter by `distance`.
+/// range of its policy's components; see NeighbourLists). Components with a smaller range filter
+/// by `distance`. The spans point into the step's neighbour lists (or, in tests, into any array
+/// that outlives the call).
 struct AgentQuery {
     int i = 0;
     Vec2 position{0, 0}, velocity{0, 0}, prefVelocity{0, 0};
     double radius = 0, prefSpeed = 0, maxSpeed = 0, maxAcceleration = 0, mass = 1;
-    std::vector<NeighbourAgent> agents;  ///< other agents (not i), in a fixed (grid) order
-    std::vector<int> segments;           ///< indices into World::segments(), ascending
+    std::span<const NeighbourAgent> agents;  ///< other agents (not i), in a fixed (grid) order
+    std::span<const int> segments;           ///< indices into World::segments(), ascending
 };
 
 /// Read-only view of the frozen state handed to every component call.
@@ -56,6 +54,30 @@ struct StepContext {
     std::uint64_t stepIndex; ///< number of fine steps done so far (for random streams)
     std::uint64_t seed;      ///< the run's seed
     double relaxationTime;   ///< the evaluating policy step's RelaxationTime, s
+    /// This step's neighbour lists (null: none, e.g. in tests; the helpers below then query the grid).
+    const NeighbourLists* lists = nullptr;
+
+    /// Calls f(j, offset, distance) for every other agent j within `radius` of agent i, in the
+    /// grid's visit order. Reads the step's neighbour list when it reaches far enough, else
+    /// queries the grid: the same agents, offsets and distances either way (the same test,
+    /// |offset|² <= radius², decides).
+    template <class F>
+    void forEachNeighbour(std::size_t i, double radius, F&& f) const {
+        if (lists != nullptr && i < lists->size() && radius <= lists->radius(i)) {
+            const double r2 = radius * radius;
+            for (const NeighbourAgent& nb : lists->agents(i))
+                if (nb.offset.squaredNorm() <= r2) f(nb.index, nb.offset, nb.distance);
+            return;
+        }
+        const int self = static_cast<int>(i);
+        grid.forEachWithin(agents.pos[i], radius, [&](int j, const Vec2& d, double d2) {
+            if (j != self) f(j, d, std::sqrt(d2));
+        });
+    }
+
+    /// Wall segments within `radius` of agent i into `out` (ascending), from the step's lists
+    /// when they reach far enough, else from the world's segment grid.
+    void segmentsNear(std::size_t i, double radius, std::vector<int>& out) const;
 
     /// A random stream private to (agent, step, stream): same numbers whatever the thread count.
     Rng rng(const AgentQuery& q, std::uint64_t stream) const {

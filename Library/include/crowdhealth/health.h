@@ -25,7 +25,6 @@
 #include <cstdint>
 #include <limits>
 #include <string>
-#include <unordered_map>
 #include <vector>
 
 namespace ch {
@@ -110,13 +109,14 @@ public:
     void steerPreferred(AgentStore& agents, const PointGrid& grid, double time, std::uint64_t seed) const;
     /// Crush, injury, heading, peaks after the step; `time` is the time at the end of the step.
     void endStep(const AgentStore& agents, double time, double dt);
-    /// The agent left at its goal at `time`.
-    void markExit(AgentId id, double time);
-    /// Follows agents that were added or removed (the simulation calls it after each change).
-    void sync(const AgentStore& agents) { refreshSlots(agents); }
+    /// Active agent i (AgentStore index) leaves at its goal at `time` (called before removal).
+    void markExit(const AgentStore& agents, std::size_t i, double time);
+    /// Active agent i has just entered the world.
+    void activated(const AgentStore& agents, std::size_t i);
 
     const std::vector<HealthRecord>& records() const { return records_; }
-    /// Record of active agent i (AgentStore index).
+    /// Record of active agent i (AgentStore index): records are one per spec agent, found through
+    /// AgentStore::specIndex, so agents keep theirs whatever the removals.
     const HealthRecord& recordOf(const AgentStore& agents, std::size_t i) const;
     HealthParams& params(std::size_t policyIndex) { return params_[policyIndex]; }
     const HealthParams& params(std::size_t policyIndex) const { return params_[policyIndex]; }
@@ -128,11 +128,12 @@ public:
     double meanPanic(const AgentStore& agents) const;
 
 private:
-    void refreshSlots(const AgentStore& agents);
+    HealthRecord& record(const AgentStore& agents, std::size_t i) {
+        return records_[static_cast<std::size_t>(agents.specIndex[i])];
+    }
+    const HealthRecord& record(const AgentStore& agents, std::size_t i) const { return recordOf(agents, i); }
 
-    std::vector<HealthRecord> records_;      ///< one per spec agent
-    std::unordered_map<AgentId, std::size_t> recordOfId_;
-    std::vector<std::size_t> slot_;          ///< AgentStore index → record
+    std::vector<HealthRecord> records_;      ///< one per spec agent, in spec order
     std::vector<HealthParams> params_;       ///< per policy index
     std::vector<unsigned char> hasElement_;  ///< per policy index
     std::vector<PanicEventSpec> events_;

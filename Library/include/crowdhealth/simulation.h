@@ -47,13 +47,15 @@ struct Evacuation {
 class Simulation {
 public:
     /// The named phases of a fine step, in order (see the list above), for profiling.
-    enum class Phase { Activation, Grid, Preferred, Prepare, Forces, Integration, Removal, Count };
+    enum class Phase { Activation, Neighbours, Preferred, Prepare, Forces, Integration, Removal, Count };
     static constexpr std::size_t kPhases = static_cast<std::size_t>(Phase::Count);
     static const char* phaseName(Phase p);
 
     /// Builds everything from a validated spec. Throws std::runtime_error (e.g. RegistryError)
     /// when the spec names something that does not exist.
-    explicit Simulation(const ScenarioSpec& spec);
+    /// Takes the spec by value: pass a temporary or std::move it to avoid a copy (it holds every
+    /// agent's spec, which counts at a million agents).
+    explicit Simulation(ScenarioSpec spec);
 
     /// OpenMP threads for the parallel phases (results do not depend on it).
     void setThreads(int n);
@@ -123,7 +125,8 @@ private:
     /// Phase 4: forward Euler from the accelerations of phase 3 into the next-state buffers.
     void integrate();
     void activatePending();
-    void gatherQuery(std::size_t i, double range, AgentQuery& q) const;
+    /// Agent i's state and its neighbour lists of this step into q.
+    void gatherQuery(std::size_t i, AgentQuery& q) const;
     void removeFinished();
     /// Tells every component how agent indices moved (see Component::remapAgents).
     void remapComponents(const std::vector<int>& previous);
@@ -134,6 +137,7 @@ private:
     std::vector<Policy> policies_;
     AgentStore agents_;
     PointGrid grid_;
+    NeighbourLists lists_;  ///< this step's neighbourhoods (within policyRange_ of each agent)
     double dtCoarse_, dtFine_;
     int finePerCoarse_;
     double endTime_;

@@ -1,0 +1,123 @@
+// CrowdHealth — per-step neighbour lists: every agent's neighbouring agents and wall segments,
+// found once per step and shared by all components (SPH density, contact, the per-agent calls).
+#pragma once
+
+#include "crowdhealth/grid.h"
+#include "crowdhealth/types.h"
+
+#include <algorithm>
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+namespace ch {
+
+class World;
+
+/// A neighbouring agent of the query agent. 32 bytes: the members are ordered so that Vec2's
+/// 16-byte alignment adds no padding inside (index first would make it 48).
+struct NeighbourAgent {
+    Vec2 offset;      ///< pos[j] - pos[i], shortest on a torus (m)
+    double distance;  ///< |offset| (m)
+    int index;        ///< index j in AgentStore
+};
+static_assert(sizeof(NeighbourAgent) == 32, "NeighbourAgent should stay 32 bytes (memory at 1M agents)");
+
+/// The neighbourhoods of one step. Agent i's list holds every other agent within radius(i) (in
+/// the grid's visit order, so sums over it do not depend on the thread count) and every wall
+/// segment within radius(i) (ascending index). Built in parallel into per-thread buffers that are
+/// kept from step to step, so a step allocates nothing once the buffers have grown.
+/// Memory: 32 bytes per neighbour pair within range (about 13 per agent in a dense SPH crowd).
+class NeighbourLists {
+public:
+    /// Rebuilds the lists for `positions` from `grid` (built over the same positions with a cell
+    /// of at least the largest radius). Agent i's radius is rangeOfGroup[group[i]].
+    void build(const std::vector<Vec2>& positions, const PointGrid& grid, const World& world,
+               const std::vector<int>& group, const std::vector<double>& rangeOfGroup);
+
+    std::size_t size() const { return agentSlice_.size(); }
+    /// The radius (m) agent i's lists were gathered with.
+    double radius(std::size_t i) const { return rangeOfGroup_[static_cast<std::size_t>((*group_)[i])]; }
+    /// Other agents within radius(i).
+    std::span<const NeighbourAgent> agents(std::size_t i) const {
+        const Slice& s = agentSlice_[i];
+        return {agentBuffers_[s.thread].data(s.block, s.begin), s.count};
+    }
+    /// Wall segments within radius(i), ascending.
+    std::span<const int> segments(std::size_t i) const {
+        const Slice& s = segmentSlice_[i];
+        return {segmentBuffers_[s.thread].data(s.block, s.begin), s.count};
+    }
+
+private:
+    /// Where a list starts: block and offset in a BlockBuffer.
+    struct Place {
+        std::size_t block = 0, begin = 0;
+    };
+
+    /// Append-only storage made of blocks that never reallocate: a list that does not fit in the
+    /// current block moves whole to the next one, so every list is contiguous, views stay valid,
+    /// and memory is the lists' size plus a little slack (no doubling, no copy peak).
+    template <class T>
+    class BlockBuffer {
+    public:
+        /// Forgets the contents, keeps the blocks.
+        void clear() {
+            for (std::vector<T>& b : blocks_) b.clear();
+            current_ = 0;
+        }
+        /// Where the next list starts.
+        Place start() {
+            if (blocks_.empty()) grow(0, kBlock);
+            return Place{current_, blocks_[current_].size()};
+        }
+        /// Appends to the list that started at `at` (moves the list, and `at`, when the block is full).
+        void push(Place& at, const T& value) {
+            std::vector<T>* b = &blocks_[at.block];
+            if (b->size() == b->capacity()) {
+                const std::size_t have = b->size() - at.begin;
+                grow(at.block + 1, std::max(kBlock, 2 * (have + 1)));  // may move blocks_ itself
+                b = &blocks_[at.block];
+                std::vector<T>& next = blocks_[at.block + 1];
+                next.insert(next.end(), b->begin() + static_cast<std::ptrdiff_t>(at.begin), b->end());
+                b->resize(at.begin);
+                at = Place{at.block + 1, 0};
+                current_ = at.block;
+                b = &next;
+            }
+            b->push_back(value);
+        }
+        const T* data(std::uint32_t block, std::uint32_t begin) const { return blocks_[block].data() + begin; }
+
+    private:
+        static constexpr std::size_t kBlock = std::size_t{1} << 16;  ///< entries per block
+        /// Makes block k exist, empty, with room for at least `capacity` entries.
+        void grow(std::size_t k, std::size_t capacity) {
+            if (blocks_.size() <= k) blocks_.resize(k + 1);
+            blocks_[k].clear();
+            if (blocks_[k].capacity() < capacity) {
+                std::vector<T> fresh;
+                fresh.reserve(capacity);
+                blocks_[k].swap(fresh);
+            }
+        }
+        std::vector<std::vector<T>> blocks_;
+        std::size_t current_ = 0;
+    };
+
+    /// One agent's list: 16 bytes (a million agents have two of them).
+    struct Slice {
+        std::uint32_t thread, block, begin, count;
+    };
+    static Slice slice(int thread, const Place& at, std::size_t count);
+
+    std::vector<BlockBuffer<NeighbourAgent>> agentBuffers_;  ///< one per thread
+    std::vector<BlockBuffer<int>> segmentBuffers_;           ///< one per thread
+    std::vector<std::vector<int>> scratch_;                  ///< one per thread: segment query
+    std::vector<Slice> agentSlice_, segmentSlice_;           ///< per agent, into the buffers
+    const std::vector<int>* group_ = nullptr;
+    std::vector<double> rangeOfGroup_;
+};
+
+}  // namespace ch
