@@ -38,18 +38,34 @@ SocialForcesAvoidance::SocialForcesAvoidance(const ParamSet& params) {
 }
 
 Vec2 SocialForcesAvoidance::pairForce(const Vec2& R, double vb, const Vec2& eb) const {
-    const double magR = R.norm();
     const Vec2 step = vb * dt_ * eb;
+    return pairForce(R, R.norm(), step, step.squaredNorm());
+}
+
+Vec2 SocialForcesAvoidance::pairForce(const Vec2& R, double magR, const Vec2& step, double stepSq) const {
     const Vec2 R2 = R - step;
     const double magR2 = R2.norm();
     const double sum = magR + magR2;
-    const double twoBSquared = sum * sum - step.squaredNorm();  // (2b)²
+    const double twoBSquared = sum * sum - stepSq;  // (2b)²
     if (twoBSquared <= 0 || magR < 1e-9 || magR2 < 1e-9) return {0, 0};
     const double b = 0.5 * std::sqrt(twoBSquared);
     if (b < 1e-3) return {0, 0};
     // ∇_R b = (|R| + |R−s|)/(4b) · (R/|R| + (R−s)/|R−s|); f = −dV/db ∇b = V0/σ e^{−b/σ} ∇b.
     const Vec2 gradB = sum / (4.0 * b) * (R / magR + R2 / magR2);
     return V0_ / sigma_ * std::exp(-b / sigma_) * gradB;
+}
+
+void SocialForcesAvoidance::prepare(const StepContext& ctx) {
+    // The neighbour's step v_β Δt e_β depends on the neighbour only: computed once per agent here
+    // instead of once per pair (a norm and a normalisation saved in the O(N·k) loop).
+    const AgentStore& A = ctx.agents;
+    const std::size_t n = A.size();
+    step_.resize(n);
+    stepSq_.resize(n);
+    for (std::size_t j = 0; j < n; ++j) {
+        step_[j] = A.vel[j].norm() * dt_ * normalisedOrZero(A.prefVel[j]);
+        stepSq_[j] = step_[j].squaredNorm();
+    }
 }
 
 Vec2 SocialForcesAvoidance::wallForce(const Vec2& diff) const {
@@ -70,9 +86,8 @@ Vec2 SocialForcesAvoidance::acceleration(const AgentQuery& q, const StepContext&
         if (n.distance > range_) continue;
         if (n.distance <= q.radius + A.radius[n.index]) continue;  // in contact: contact forces act
         const Vec2 R = -n.offset;  // from the neighbour to us
-        const Vec2 eb = normalisedOrZero(A.prefVel[n.index]);
-        const double vb = A.vel[n.index].norm();
-        Vec2 fj = pairForce(R, vb, eb);
+        const std::size_t j = static_cast<std::size_t>(n.index);
+        const Vec2 fj = pairForce(R, n.distance, step_[j], stepSq_[j]);
         // Eq. 8: full weight when the neighbour is within the field of view.
         const bool inView = heading.squaredNorm() == 0 || heading.dot(n.offset / n.distance) >= cosFov;
         f += (inView ? 1.0 : behind_) * fj;

@@ -3,6 +3,8 @@
 
 #include "crowdhealth/registry.h"
 
+#include <vector>
+
 namespace ch {
 
 /// Repulsion from other pedestrians and walls after D. Helbing and P. Molnár, "Social force model
@@ -19,6 +21,7 @@ class SocialForcesAvoidance : public ForceComponent {
 public:
     explicit SocialForcesAvoidance(const ParamSet& params);
     static ComponentInfo Info();
+    void prepare(const StepContext& ctx) override;
     Vec2 acceleration(const AgentQuery& q, const StepContext& ctx) const override;
 
     /// Force (per unit mass) on an agent at relative position R = x_α − x_β from a neighbour
@@ -28,6 +31,11 @@ public:
     Vec2 wallForce(const Vec2& diff) const;
 
 private:
+    /// pairForce with the neighbour's step s = v_β Δt e_β, |s|² and |R| already known (the hot loop).
+    Vec2 pairForce(const Vec2& R, double magR, const Vec2& step, double stepSq) const;
+
+    std::vector<Vec2> step_;      ///< per agent, set in prepare(): v Δt e (e: preferred direction)
+    std::vector<double> stepSq_;  ///< |step_|²
     double dt_ = 2.0;       ///< s, the step Δt in b(R): how far ahead the other's motion counts
     double V0_ = 2.1;       ///< m²/s², strength of the pedestrian potential
     double sigma_ = 0.3;    ///< m, decay length of the pedestrian potential
