@@ -1,6 +1,8 @@
 // crowdhealth — command-line parsing (see cli.h).
 #include "cli.h"
 
+#include <crowdhealth/scenario.h>
+
 #include <boost/program_options.hpp>
 
 #include <charconv>
@@ -53,9 +55,13 @@ po::options_description visibleOptions() {
          "... to the Nth evacuee (overrides <Output flow_last>, default 350)")
         ("end-time", po::value<std::string>()->value_name("T"),
          "simulated time to stop at (s), overrides Simulation@end_time")
-        ("trajectories", po::value<std::string>()->value_name("umans|txt|both|none"),
-         "trajectory files: UMANS output_<id>.csv, PedPy trajectories.txt, both or none "
+        ("trajectories", po::value<std::string>()->value_name("umans|txt|bin|both|none"),
+         "trajectory files: UMANS output_<id>.csv (small runs), PedPy trajectories.txt, compact "
+         "trajectories.bin, both (umans and txt), none, or a list such as txt,bin "
          "(default: the scenario's <Output>, else none)")
+        ("trajectory-interval", po::value<std::string>()->value_name("T"),
+         "seconds between trajectory frames, default every coarse step (overrides <Output "
+         "trajectory_interval>)")
         ("plot", "after the run(s), draw fig3.png, health.png, schedule.png and heatmap.png into "
          "OUTDIR with gnuplot (the same as 'crowdhealth plot OUTDIR' later)")
         ("quiet,q", "no progress bar and no closing summary")
@@ -196,11 +202,21 @@ std::optional<Options> parseCommandLine(int argc, const char* const argv[], std:
     }
     if (vm.count("trajectories")) {
         const std::string t = str("trajectories");
-        if (t != "umans" && t != "txt" && t != "both" && t != "none") {
-            usageError(err, "--trajectories must be one of umans, txt, both, none; not '" + t + "'");
+        if (!ch::parseTrajectoryFormats(t)) {
+            usageError(err, std::string("--trajectories must be one of ") + ch::kTrajectoryFormatWords +
+                                ", or a comma-separated list such as txt,bin; not '" + t + "'");
             return std::nullopt;
         }
         o.trajectories = t;
+    }
+    if (vm.count("trajectory-interval")) {
+        double t = 0;
+        if (!parseDouble(str("trajectory-interval"), t) || !std::isfinite(t) || t <= 0) {
+            usageError(err, "--trajectory-interval must be a positive number of seconds, not '" +
+                                str("trajectory-interval") + "'");
+            return std::nullopt;
+        }
+        o.trajectoryInterval = t;
     }
     if (vm.count("replications")) {
         std::uint64_t n = 0;

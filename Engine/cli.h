@@ -23,7 +23,9 @@ struct Options {
     int threads = 0;
     std::optional<std::uint64_t> seed;     ///< --seed: overrides Simulation@seed
     std::optional<double> endTime;         ///< --end-time (s): overrides Simulation@end_time
-    std::optional<std::string> trajectories;  ///< umans|txt|both|none; default from <Output>
+    std::optional<std::string> trajectories;  ///< umans|txt|bin|both|none or a list; default from <Output>
+    /// --trajectory-interval (s): overrides <Output trajectory_interval>
+    std::optional<double> trajectoryInterval;
     /// --replications N: run seeds S … S+N−1 into OUTDIR/run_000 … and write OUTDIR/summary.csv.
     std::optional<std::uint64_t> replications;
     std::optional<int> flowFirst;  ///< --flow-first: overrides <Output flow_first>

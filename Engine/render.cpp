@@ -25,6 +25,8 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <iterator>
+#include <limits>
 #include <map>
 #include <optional>
 #include <regex>
@@ -171,10 +173,28 @@ struct Sample {
     double x, y;
 };
 
-/// Reads RUNDIR/trajectories.txt (PedPy) or RUNDIR/output_<id>.csv (UMANS) into frame index →
-/// samples; `dt` is the time between frames (s).
+/// Reads RUNDIR/trajectories.bin (compact binary), else RUNDIR/trajectories.txt (PedPy), else
+/// RUNDIR/output_<id>.csv (UMANS) into frame index (coarse step) → samples; `dt` is the time of
+/// one frame index (s), i.e. delta_time. With a trajectory interval, not every index has a frame.
+/// `explicitFrames`: every recorded frame is in byFrame, also those without agents (binary file).
 bool readTrajectories(const fs::path& dir, double& dt, std::map<std::int64_t, std::vector<Sample>>& byFrame,
-                      std::string& error) {
+                      bool& explicitFrames, std::string& error) {
+    const fs::path bin = dir / "trajectories.bin";
+    explicitFrames = fs::exists(bin);
+    if (explicitFrames) {
+        try {
+            const ch::BinaryTrajectories t = ch::readBinaryTrajectories(bin);
+            if (t.deltaTime > 0) dt = t.deltaTime;
+            for (const ch::TrajectoryFrame& f : t.frames) {
+                std::vector<Sample>& samples = byFrame[static_cast<std::int64_t>(f.step)];  // ids already sorted
+                for (std::size_t k = 0; k < f.id.size(); ++k) samples.push_back({f.id[k], f.x[k], f.y[k]});
+            }
+        } catch (const std::exception& e) {
+            error = e.what();
+            return false;
+        }
+        return true;
+    }
     const fs::path txt = dir / "trajectories.txt";
     if (fs::exists(txt)) {
         std::ifstream in(txt);
@@ -222,7 +242,8 @@ bool readTrajectories(const fs::path& dir, double& dt, std::map<std::int64_t, st
     }
     if (!any) {
         error = "no trajectories in " + dir.string() +
-                " (neither trajectories.txt nor output_<id>.csv); run the scenario with --trajectories txt or umans";
+                " (no trajectories.bin, trajectories.txt or output_<id>.csv); run the scenario with "
+                "--trajectories bin, txt or umans";
         return false;
     }
     for (auto& [frame, samples] : byFrame)
@@ -285,7 +306,8 @@ bool framesFromReplay(const RenderOptions& o, const ch::ScenarioSpec& spec, std:
     double dt = spec.deltaTime;
     std::map<std::int64_t, std::vector<Sample>> byFrame;
     std::string error;
-    if (!readTrajectories(fs::path(o.replay), dt, byFrame, error)) {
+    bool explicitFrames = false;
+    if (!readTrajectories(fs::path(o.replay), dt, byFrame, explicitFrames, error)) {
         std::cerr << "crowdhealth render: error: " << error << "\n";
         return false;
     }
@@ -294,6 +316,23 @@ bool framesFromReplay(const RenderOptions& o, const ch::ScenarioSpec& spec, std:
     const ch::World world(spec.world, spec.obstacles);
     const std::int64_t lastFrame = byFrame.empty() ? 0 : byFrame.rbegin()->first;
     const double lastTime = static_cast<double>(lastFrame) * dt;
+    // Frames recorded every k coarse steps (a trajectory interval): a time between two frames
+    // shows the earlier one, up to `stride` steps after it. trajectories.bin holds every recorded
+    // frame, also empty ones, so the earlier frame is always right. The text formats have no
+    // line for a frame without agents: there k is the most frequent gap between frames, and
+    // when it is 1 (every step recorded) only the exact frame is used, as a gap then means that
+    // nobody was in the world.
+    std::int64_t stride = 1;
+    if (explicitFrames) {
+        stride = std::numeric_limits<std::int64_t>::max();
+    } else if (byFrame.size() > 1) {
+        std::map<std::int64_t, std::size_t> gaps;
+        for (auto it = std::next(byFrame.begin()); it != byFrame.end(); ++it) ++gaps[it->first - std::prev(it)->first];
+        const auto common = std::max_element(gaps.begin(), gaps.end(),
+                                              [](const auto& a, const auto& b) { return a.second < b.second; });
+        // +1: an interval that is not a whole number of steps gives gaps of k and k + 1.
+        if (common->first > 1) stride = common->first + 1;
+    }
 
     std::vector<double> times = targetTimes(o, lastTime);
     if (!o.every && *o.time > lastTime + dt / 2) {
@@ -302,11 +341,18 @@ bool framesFromReplay(const RenderOptions& o, const ch::ScenarioSpec& spec, std:
         return false;
     }
     for (const double t : times) {
-        const std::int64_t f = std::llround(t / dt);
+        std::int64_t f = std::llround(t / dt);
         if (f > lastFrame) break;
+        auto it = byFrame.upper_bound(f);  // the recorded frame at or before f, within one stride
+        if (it != byFrame.begin() && std::prev(it)->first > f - stride) {
+            --it;
+            f = it->first;
+        } else {
+            it = byFrame.end();
+            if (f < stride) f = 0;  // before the first frame of UMANS files (no t = 0 row): the start
+        }
         Frame fr;
         fr.time = static_cast<double>(f) * dt;
-        const auto it = byFrame.find(f);
         std::vector<ch::Vec2> pos;
         std::vector<double> mass;
         if (it != byFrame.end()) {

@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <iostream>
 
@@ -17,8 +18,6 @@ namespace chcli {
 namespace fs = std::filesystem;
 
 namespace {
-
-bool validTrajectoryChoice(const std::string& t) { return t == "umans" || t == "txt" || t == "both" || t == "none"; }
 
 /// --debug-interrupt-after raises SIGINT once per program, also when several runs go at once.
 std::atomic<bool> g_raisedForTest{false};
@@ -76,14 +75,39 @@ std::unique_ptr<ch::Simulation> buildSimulation(const ch::ScenarioSpec& spec, co
 std::optional<RunPlan> planRun(const Options& o, const ch::ScenarioSpec& spec, bool warn) {
     RunPlan plan;
     const std::string trajectories = o.trajectories.value_or(spec.output.trajectories);
-    if (!validTrajectoryChoice(trajectories)) {
-        std::cerr << spec.output.loc.file << ":" << spec.output.loc.line
-                  << ": error: <Output> trajectories must be umans, txt, both or none, not '" << trajectories
+    const std::optional<ch::TrajectoryFormats> formats = ch::parseTrajectoryFormats(trajectories);
+    if (!formats) {  // the loader and the command line check it already; a spec built by hand may not
+        std::cerr << spec.output.loc.file << ":" << spec.output.loc.line << ": error: <Output> trajectories must be "
+                  << ch::kTrajectoryFormatWords << ", or a comma-separated list of them, not '" << trajectories
                   << "'\ncrowdhealth: nothing was simulated or written\n";
         return std::nullopt;
     }
-    plan.writeUmans = trajectories == "umans" || trajectories == "both";
-    plan.writePedPy = trajectories == "txt" || trajectories == "both";
+    plan.trajectories = *formats;
+    if (formats->bin) {
+        // trajectories.bin stores ids as uint32: refuse before the run rather than fail at its end.
+        for (const ch::AgentSpec& a : spec.agents) {
+            if (a.id >= 0 && static_cast<std::uint64_t>(a.id) <= ch::trajbin::kMaxId) continue;
+            std::cerr << a.loc.file << ":" << a.loc.line << ": error: agent id " << a.id
+                      << " does not fit in trajectories.bin (ids up to " << ch::trajbin::kMaxId
+                      << "); use --trajectories txt or umans, or smaller ids\n"
+                         "crowdhealth: nothing was simulated or written\n";
+            return std::nullopt;
+        }
+    }
+    plan.trajectoryInterval = o.trajectoryInterval.value_or(spec.output.trajectoryInterval);
+    if (warn && o.trajectoryInterval) {
+        // The loader warns about <Output trajectory_interval>; the command line's value gets the same word.
+        const double steps = *o.trajectoryInterval / spec.deltaTime;
+        if (steps < 1 - 1e-9)
+            std::cerr << "crowdhealth: warning: --trajectory-interval " << ch::formatNumber(*o.trajectoryInterval)
+                      << " s is shorter than delta_time (" << ch::formatNumber(spec.deltaTime)
+                      << " s): trajectories are recorded every coarse step\n";
+        else if (std::abs(steps - std::round(steps)) > 1e-9 * steps)
+            std::cerr << "crowdhealth: warning: --trajectory-interval " << ch::formatNumber(*o.trajectoryInterval)
+                      << " s is not a whole multiple of delta_time (" << ch::formatNumber(spec.deltaTime)
+                      << " s): frames are taken at the first coarse step at or after each multiple, so they are "
+                         "unevenly spaced\n";
+    }
 
     // End time: --end-time > the scenario's > the safety cap. The cap is not set as the
     // simulation's end time, because then finished() would wait for it even once everyone left.
@@ -133,8 +157,18 @@ RunOutcome simulateAndWrite(ch::Simulation& sim, const RunPlan& plan, const fs::
     const ch::ScenarioSpec& spec = sim.spec();
     ch::MetricsRecorder metrics(spec.output.metricsInterval);
     ch::SafetyRecorder safety;  // crowd measures per cell every coarse step (heat map, verdict)
-    ch::TrajectoryRecorder trajectory;
-    const bool recordTrajectories = plan.writeUmans || plan.writePedPy;
+    // The text and binary trajectories are streamed into their .tmp files during the run, and
+    // renamed with the other outputs at its end (removed if the run fails).
+    std::optional<ch::TrajectoryOutput> trajectory;
+    if (plan.trajectories.any()) {
+        try {
+            trajectory.emplace(outDir, plan.trajectories, plan.trajectoryInterval, sim.deltaTime(),
+                               spec.output.trajectoryVelocities);
+        } catch (const std::exception& e) {
+            result.error = std::string("cannot write the outputs: ") + e.what();
+            return result;
+        }
+    }
 
     // The probe: the first coarse step at or after the time (same tolerance as the metrics).
     bool probeDone = !hooks.probeMeanDensityAt.has_value();
@@ -152,7 +186,7 @@ RunOutcome simulateAndWrite(ch::Simulation& sim, const RunPlan& plan, const fs::
     try {
         metrics.sample(sim);  // the t = 0 row, before the first step
         safety.record(sim);
-        if (recordTrajectories) trajectory.record(sim);
+        if (trajectory) trajectory->record(sim);  // frame 0
         if (!probeDone) probe();
         while (!sim.finished()) {
             if (plan.useSafetyCap && sim.time() + 1e-9 * kSafetyCapSeconds >= kSafetyCapSeconds) {
@@ -162,7 +196,7 @@ RunOutcome simulateAndWrite(ch::Simulation& sim, const RunPlan& plan, const fs::
             sim.stepCoarse();
             metrics.maybeSample(sim);
             safety.record(sim);
-            if (recordTrajectories) trajectory.record(sim);
+            if (trajectory) trajectory->maybeRecord(sim);
             if (!probeDone) probe();
             if (hooks.afterStep) hooks.afterStep(sim);
             if (o.interruptAfterSteps && sim.coarseSteps() >= *o.interruptAfterSteps &&
@@ -174,6 +208,7 @@ RunOutcome simulateAndWrite(ch::Simulation& sim, const RunPlan& plan, const fs::
             }
         }
         metrics.finish(sim);  // the row of the final time, if it is not on the interval
+        if (trajectory) trajectory->finish(sim);  // likewise the final frame
     } catch (const std::exception& e) {
         if (hooks.afterLoop) hooks.afterLoop(sim);
         result.error = "the simulation failed at t = " + ch::formatNumber(sim.time()) + " s: " + e.what();
@@ -190,8 +225,7 @@ RunOutcome simulateAndWrite(ch::Simulation& sim, const RunPlan& plan, const fs::
         ch::writeFileAtomic(outDir / "evacuations.csv", ch::evacuationsCsv(sim));
         ch::writeFileAtomic(outDir / "health.csv", ch::healthCsv(sim.health()));
         ch::writeFileAtomic(outDir / "heatmap.csv", safety.heatmapCsv());
-        if (plan.writeUmans) trajectory.writeUmans(outDir);
-        if (plan.writePedPy) trajectory.writePedPy(outDir / "trajectories.txt", sim.deltaTime());
+        if (trajectory) trajectory->commit();
         ch::writeFileAtomic(outDir / "summary.json", ch::summaryJson(sim, result.info, result.peaks, &result.verdict));
     } catch (const std::exception& e) {
         result.error = std::string("cannot write the outputs: ") + e.what();

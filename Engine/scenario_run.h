@@ -29,14 +29,18 @@ std::unique_ptr<ch::Simulation> buildSimulation(const ch::ScenarioSpec& spec, co
 
 /// How a scenario is run: which trajectory files, and until when.
 struct RunPlan {
-    bool writeUmans = false, writePedPy = false;
+    ch::TrajectoryFormats trajectories;  ///< --trajectories, else <Output trajectories>
+    /// s between trajectory frames (--trajectory-interval, else <Output trajectory_interval>);
+    /// 0: every coarse step.
+    double trajectoryInterval = 0;
     bool useSafetyCap = false;             ///< no end time at all: stop at kSafetyCapSeconds
     std::optional<double> endTimeOverride; ///< --end-time
     ch::RunInfo info;                      ///< scenario, endTime, endTimeSource filled in
 };
 
 /// Decides the plan from the options and the spec. Prints an error and returns nullopt when the
-/// trajectory choice is invalid; prints the "no end time" warning when `warn`.
+/// trajectory choice is invalid or an agent id does not fit in trajectories.bin; prints the "no
+/// end time" warning, and one about a --trajectory-interval off the coarse steps, when `warn`.
 std::optional<RunPlan> planRun(const Options& o, const ch::ScenarioSpec& spec, bool warn);
 
 /// Creates `dir` and checks that a file can be created in it. Returns the reason it cannot be

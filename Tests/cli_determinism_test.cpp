@@ -15,7 +15,7 @@ void checkSameWithOneAndTwoThreads(const std::string& scenario) {
     const fs::path dir = freshDir(caseName());
     for (const char* t : {"1", "2"}) {
         const Result r = run(dir, {"-i", scenario, "-o", std::string("t") + t, "-t", t, "--end-time", "20",
-                                   "--trajectories", "both", "--seed", "7", "-q"});
+                                   "--trajectories", "both,bin", "--seed", "7", "-q"});
         BOOST_REQUIRE_MESSAGE(r.status == 0, "-t " << t << ": " << r.err);
     }
     const std::string m1 = readFile(dir / "t1" / "metrics.csv"), m2 = readFile(dir / "t2" / "metrics.csv");

@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <cstdlib>
 #include <map>
+#include <set>
 
 using namespace clitest;
 
@@ -253,6 +254,38 @@ BOOST_AUTO_TEST_CASE(replay_draws_a_series_and_recomputes_density) {
     r = run(dir, {"render", "--replay", "run", "-o", "contact", "--time", "1", "--color", "contact"});
     BOOST_TEST(r.status == 2);
     BOOST_TEST(r.err.find("trajectories record positions only") != std::string::npos, r.err);
+}
+
+BOOST_AUTO_TEST_CASE(replay_of_trajectories_bin_with_an_interval_matches_the_text_replay) {
+    // One run writes trajectories.bin and .txt every 0.5 s; a copy of the folder without the .bin
+    // replays from the text. Times between two frames show the earlier frame (1.3 s → 1 s).
+    const fs::path dir = freshDir(caseName());
+    const std::string scenario = smallDoorway(dir);
+    Result r =
+        run(dir, {"-i", scenario, "-o", "run", "--trajectories", "txt,bin", "--trajectory-interval", "0.5", "-q"});
+    BOOST_REQUIRE_MESSAGE(r.status == 0, r.err);
+    fs::create_directories(dir / "text");
+    for (const char* f : {"summary.json", "trajectories.txt"}) fs::copy_file(dir / "run" / f, dir / "text" / f);
+    for (const char* folder : {"run", "text"}) {
+        r = run(dir, {"render", "--replay", folder, "-o", std::string(folder) + "-frames", "--every", "1.3", "--size",
+                      "400x300", "-q"});
+        BOOST_REQUIRE_MESSAGE(r.status == 0, folder << ": " << r.err);
+    }
+    const std::vector<DrawnAgent> fromBin = readRenderData(dir / "run-frames" / "render-data.txt");
+    const std::vector<DrawnAgent> fromText = readRenderData(dir / "text-frames" / "render-data.txt");
+    BOOST_REQUIRE(!fromBin.empty());
+    BOOST_REQUIRE_EQUAL(fromBin.size(), fromText.size());
+    std::set<double> times;
+    for (std::size_t k = 0; k < fromBin.size(); ++k) {
+        BOOST_TEST(fromBin[k].frame == fromText[k].frame);
+        BOOST_TEST(fromBin[k].time == fromText[k].time);
+        BOOST_TEST(std::abs(fromBin[k].x - fromText[k].x) < 1e-4);  // float32 against 4 decimals
+        BOOST_TEST(std::abs(fromBin[k].y - fromText[k].y) < 1e-4);
+        BOOST_TEST(std::abs(fromBin[k].value - fromText[k].value) < 1e-2 * std::max(1.0, fromText[k].value));
+        times.insert(fromBin[k].time);
+    }
+    // --every 1.3 up to the 4 s recording: 0, 1.3, 2.6 and 3.9 s show the frames of 0, 1, 2.5, 3.5 s.
+    BOOST_TEST(times == (std::set<double>{0, 1, 2.5, 3.5}), boost::test_tools::per_element());
 }
 
 BOOST_AUTO_TEST_CASE(replay_of_a_recorded_folder_uses_the_poly6_density) {

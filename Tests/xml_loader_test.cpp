@@ -460,7 +460,8 @@ BOOST_AUTO_TEST_CASE(structural_errors) {
     CHECK_DIAG(L, f, 35, "error: Box@width: -1 is not in (0, inf) m");
     CHECK_DIAG(L, f, 35, "error: Box@particles: 'maybe' is not a boolean (true, false, 1 or 0)");
     CHECK_DIAG(L, f, 37, "error: Output@metrics_interval: 0 is not in (0, inf) s");
-    CHECK_DIAG(L, f, 37, "error: Output@trajectories: 'csv' is not one of: umans, txt, both, none");
+    CHECK_DIAG(L, f, 37, "error: Output@trajectories: 'csv' is not one of: umans, txt, bin, both, none, nor a "
+                         "comma-separated list of them such as txt,bin");
     CHECK_DIAG(L, f, 37, "error: Output@flow_last: 5 must be greater than flow_first (10)");
     // Several top-level elements: tolerated as UMANS does, but not silently.
     CHECK_DIAG(L, f, 39, "warning: <Agents> outside <Simulation> is ignored; move it inside <Simulation>");

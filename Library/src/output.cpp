@@ -6,11 +6,14 @@
 #include "crowdhealth/safety.h"
 
 #include <algorithm>
+#include <bit>
 #include <charconv>
 #include <cmath>
+#include <iterator>
 #include <limits>
 #include <numeric>
 #include <system_error>
+#include <type_traits>
 
 namespace ch {
 
@@ -197,33 +200,34 @@ MetricsRow measureMetrics(Simulation& sim, double h) {
     return row;
 }
 
-MetricsRecorder::MetricsRecorder(double interval, double smoothingLength)
-    : interval_(interval), h_(smoothingLength) {}
-
-/// Tolerance (s) when comparing a simulated time with a multiple of the interval: times are
+/// Tolerance (s) when comparing a simulated time with a multiple of an interval: times are
 /// products fineSteps·dt, so 3·0.1 is 0.30000000000000004, not 0.3.
 static double timeTolerance(double t) { return 1e-9 * std::max(1.0, std::abs(t)); }
+
+bool SampleClock::due(double t) const {
+    if (!(interval_ > 0)) return true;  // also NaN
+    return t + timeTolerance(t) >= static_cast<double>(nextIndex_) * interval_;
+}
+
+void SampleClock::taken(double t) {
+    if (!(interval_ > 0)) return;
+    const auto reached = static_cast<std::uint64_t>(std::floor((t + timeTolerance(t)) / interval_));
+    nextIndex_ = std::max(nextIndex_, reached + 1);
+}
+
+MetricsRecorder::MetricsRecorder(double interval, double smoothingLength)
+    : clock_(interval), h_(smoothingLength) {}
 
 void MetricsRecorder::sample(Simulation& sim) {
     const double t = sim.time();
     if (!rows_.empty() && rows_.back().time == t) return;
     if (rows_.empty()) scheduleColumns_ = sim.scheduleColumns();
     rows_.push_back(measureMetrics(sim, h_));
-    if (interval_ > 0) {
-        const auto reached = static_cast<std::uint64_t>(std::floor((t + timeTolerance(t)) / interval_));
-        nextIndex_ = std::max(nextIndex_, reached + 1);
-    }
+    clock_.taken(t);
 }
 
 bool MetricsRecorder::maybeSample(Simulation& sim) {
-    const double t = sim.time();
-    if (!(interval_ > 0)) {  // also NaN
-        const std::size_t before = rows_.size();
-        sample(sim);
-        return rows_.size() != before;
-    }
-    const double due = static_cast<double>(nextIndex_) * interval_;
-    if (t + timeTolerance(t) < due) return false;
+    if (!clock_.due(sim.time())) return false;
     const std::size_t before = rows_.size();
     sample(sim);
     return rows_.size() != before;
@@ -292,24 +296,177 @@ std::string evacuationsCsv(const Simulation& sim) {
 
 // ---- trajectories --------------------------------------------------------------------------
 
+/// Fills `order` with the indices of the agents by increasing id. Agents keep their order when
+/// others leave and newcomers are appended, so the store is usually sorted already: checked in
+/// O(n), sorted only when not.
+static void agentsById(const AgentStore& a, std::vector<std::size_t>& order) {
+    order.resize(a.size());
+    std::iota(order.begin(), order.end(), std::size_t{0});
+    if (!std::is_sorted(a.id.begin(), a.id.end()))
+        std::sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) { return a.id[x] < a.id[y]; });
+}
+
+/// The unsigned integer type of the same size as T (2, 4 or 8 bytes), to get at T's bytes.
+template <class T>
+using BitsOf = std::conditional_t<sizeof(T) == 2, std::uint16_t,
+                                  std::conditional_t<sizeof(T) == 4, std::uint32_t, std::uint64_t>>;
+
+/// Stores v at p in little-endian byte order and advances p (the bytes are the same on any host).
+template <class T>
+static void storeLittleEndian(char*& p, T v) {
+    static_assert(std::is_arithmetic_v<T> && (sizeof(T) == 2 || sizeof(T) == 4 || sizeof(T) == 8));
+    const auto bits = std::bit_cast<BitsOf<T>>(v);
+    for (std::size_t k = 0; k < sizeof(T); ++k) *p++ = static_cast<char>((bits >> (8 * k)) & 0xffu);
+}
+
+/// Reads a little-endian T at p.
+template <class T>
+static T loadLittleEndian(const char* p) {
+    BitsOf<T> bits = 0;
+    for (std::size_t k = 0; k < sizeof(T); ++k)
+        bits |= static_cast<BitsOf<T>>(static_cast<BitsOf<T>>(static_cast<unsigned char>(p[k])) << (8 * k));
+    return std::bit_cast<T>(bits);
+}
+
+BinaryTrajectoryWriter::BinaryTrajectoryWriter(fs::path file, double deltaTime, double interval, bool velocities)
+    : file_(std::move(file)), velocities_(velocities) {
+    char header[trajbin::kHeaderBytes];
+    char* p = header;
+    for (const char c : trajbin::kMagic) *p++ = c;
+    storeLittleEndian(p, trajbin::kVersion);
+    storeLittleEndian(p, velocities ? trajbin::kFlagVelocities : std::uint32_t{0});
+    storeLittleEndian(p, static_cast<std::uint32_t>(trajbin::recordBytes(velocities)));
+    storeLittleEndian(p, deltaTime);
+    storeLittleEndian(p, interval);
+    file_.write(std::string_view(header, sizeof header));
+}
+
+void BinaryTrajectoryWriter::writeFrame(const Simulation& sim) {
+    const AgentStore& a = sim.agents();
+    const std::uint64_t step = sim.coarseSteps();
+    if (step > trajbin::kMaxId)
+        throw OutputError(file_.target().string() + ": coarse step " + std::to_string(step) +
+                          " does not fit in the file's 32-bit step numbers");
+    agentsById(a, order_);
+    buffer_.resize(trajbin::kFrameHeaderBytes + a.size() * trajbin::recordBytes(velocities_));
+    char* p = buffer_.data();
+    storeLittleEndian(p, sim.time());
+    storeLittleEndian(p, static_cast<std::uint32_t>(step));
+    storeLittleEndian(p, static_cast<std::uint32_t>(a.size()));
+    for (const std::size_t i : order_) {
+        const AgentId id = a.id[i];
+        if (id < 0 || static_cast<std::uint64_t>(id) > trajbin::kMaxId)
+            throw OutputError(file_.target().string() + ": agent id " + std::to_string(id) +
+                              " does not fit in the file's 32-bit ids");
+        storeLittleEndian(p, static_cast<std::uint32_t>(id));
+        storeLittleEndian(p, static_cast<float>(a.pos[i].x()));
+        storeLittleEndian(p, static_cast<float>(a.pos[i].y()));
+        if (velocities_) {
+            storeLittleEndian(p, static_cast<float>(a.vel[i].x()));
+            storeLittleEndian(p, static_cast<float>(a.vel[i].y()));
+        }
+    }
+    file_.write(buffer_);
+}
+
+BinaryTrajectories readBinaryTrajectories(const fs::path& file) {
+    std::ifstream in(file, std::ios::binary);
+    if (!in) throw OutputError("cannot open " + file.string());
+    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    if (in.bad()) throw OutputError("cannot read " + file.string());
+    auto fail = [&](std::size_t offset, const std::string& why) {
+        return OutputError(file.string() + ": byte " + std::to_string(offset) + ": " + why);
+    };
+    if (bytes.size() < trajbin::kHeaderBytes || bytes.compare(0, 6, trajbin::kMagic, 6) != 0)
+        throw fail(0, "not a CrowdHealth binary trajectory file (no CHTRJ1 header)");
+    const char* p = bytes.data();
+    const auto version = loadLittleEndian<std::uint16_t>(p + 6);
+    if (version != trajbin::kVersion)
+        throw fail(6, "version " + std::to_string(version) + " is not supported (this program reads version " +
+                          std::to_string(trajbin::kVersion) + ")");
+    BinaryTrajectories t;
+    t.flags = loadLittleEndian<std::uint32_t>(p + 8);
+    const bool velocities = (t.flags & trajbin::kFlagVelocities) != 0;
+    const std::size_t record = loadLittleEndian<std::uint32_t>(p + 12);
+    if (record != trajbin::recordBytes(velocities))
+        throw fail(12, "record size " + std::to_string(record) + " does not match the flags");
+    t.deltaTime = loadLittleEndian<double>(p + 16);
+    t.interval = loadLittleEndian<double>(p + 24);
+
+    std::size_t at = trajbin::kHeaderBytes;
+    while (at < bytes.size()) {
+        if (bytes.size() - at < trajbin::kFrameHeaderBytes) throw fail(at, "the file ends inside a frame header");
+        TrajectoryFrame f;
+        f.time = loadLittleEndian<double>(p + at);
+        f.step = loadLittleEndian<std::uint32_t>(p + at + 8);
+        const std::size_t n = loadLittleEndian<std::uint32_t>(p + at + 12);
+        if ((bytes.size() - at - trajbin::kFrameHeaderBytes) / record < n)
+            throw fail(at, "the file ends inside the frame of step " + std::to_string(f.step));
+        at += trajbin::kFrameHeaderBytes;
+        f.id.resize(n);
+        f.x.resize(n);
+        f.y.resize(n);
+        if (velocities) {
+            f.vx.resize(n);
+            f.vy.resize(n);
+        }
+        for (std::size_t k = 0; k < n; ++k, at += record) {
+            f.id[k] = loadLittleEndian<std::uint32_t>(p + at);
+            f.x[k] = loadLittleEndian<float>(p + at + 4);
+            f.y[k] = loadLittleEndian<float>(p + at + 8);
+            if (velocities) {
+                f.vx[k] = loadLittleEndian<float>(p + at + 12);
+                f.vy[k] = loadLittleEndian<float>(p + at + 16);
+            }
+        }
+        t.frames.push_back(std::move(f));
+    }
+    return t;
+}
+
+PedPyTrajectoryWriter::PedPyTrajectoryWriter(fs::path file, double deltaTime) : file_(std::move(file)) {
+    // PedPy reads the frame rate from the first number on a comment line containing "framerate"
+    // and the unit from "x/m"; comment lines must come before the data.
+    std::string text = "# framerate: ";
+    appendNumber(text, 1.0 / deltaTime, 10);
+    text += "\n# x/m\n# y/m\n# z/m\n# id frame x y z\n";
+    file_.write(text);
+}
+
+void PedPyTrajectoryWriter::writeFrame(const Simulation& sim) {
+    const AgentStore& a = sim.agents();
+    agentsById(a, order_);
+    buffer_.clear();
+    std::string frame = " ";  // " <frame> ", the same on every row
+    frame += std::to_string(sim.coarseSteps());
+    frame += ' ';
+    for (const std::size_t i : order_) {
+        buffer_ += std::to_string(a.id[i]);
+        buffer_ += frame;
+        appendFixed(buffer_, a.pos[i].x(), 4);  // 0.1 mm: far below any pedestrian measurement
+        buffer_ += ' ';
+        appendFixed(buffer_, a.pos[i].y(), 4);
+        buffer_ += " 0\n";
+    }
+    file_.write(buffer_);
+}
+
 void TrajectoryRecorder::record(const Simulation& sim) {
     const std::uint64_t step = sim.coarseSteps();
-    if (any_ && step == lastStep_) return;
-    any_ = true;
-    lastStep_ = step;
-    if (stepTime_.size() <= step) stepTime_.resize(step + 1, std::numeric_limits<double>::quiet_NaN());
-    stepTime_[step] = sim.time();
-    ++stepsRecorded_;
+    if (!frameStep_.empty() && frameStep_.back() == step) return;
+    const std::size_t frame = frameTime_.size();
+    frameTime_.push_back(sim.time());
+    frameStep_.push_back(step);
 
     const AgentStore& a = sim.agents();
     for (std::size_t i = 0; i < a.size(); ++i) {
         auto [it, inserted] = trackOf_.try_emplace(a.id[i], tracks_.size());
         if (inserted) tracks_.push_back(Track{a.id[i], {}, {}});
         Track& tr = tracks_[it->second];
-        // A new run when the agent was absent at the previous recorded step (normally only its
+        // A new run when the agent was absent at the previous recorded frame (normally only its
         // first appearance: agents enter once and leave once).
-        if (tr.runs.empty() || tr.runs.back().firstStep + tr.runs.back().count != step)
-            tr.runs.push_back(Run{step, tr.rows.size() / 4, 0});
+        if (tr.runs.empty() || tr.runs.back().firstFrame + tr.runs.back().count != frame)
+            tr.runs.push_back(Run{frame, tr.rows.size() / 4, 0});
         const Vec2& p = a.pos[i];
         const Vec2& d = a.viewDir[i];
         tr.rows.insert(tr.rows.end(), {p.x(), p.y(), d.x(), d.y()});
@@ -317,25 +474,21 @@ void TrajectoryRecorder::record(const Simulation& sim) {
     }
 }
 
-std::vector<std::size_t> TrajectoryRecorder::tracksById() const {
+void TrajectoryRecorder::writeUmans(const fs::path& dir) const {
     std::vector<std::size_t> order(tracks_.size());
     std::iota(order.begin(), order.end(), std::size_t{0});
     std::sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) { return tracks_[x].id < tracks_[y].id; });
-    return order;
-}
-
-void TrajectoryRecorder::writeUmans(const fs::path& dir) const {
     std::string text;
-    for (const std::size_t t : tracksById()) {
+    for (const std::size_t t : order) {
         const Track& tr = tracks_[t];
         text.clear();
         for (const Run& run : tr.runs) {
             for (std::size_t k = 0; k < run.count; ++k) {
-                const std::uint64_t step = run.firstStep + k;
-                if (step == 0) continue;  // UMANS writes the state after each step, never t = 0
+                const std::size_t frame = run.firstFrame + k;
+                if (frameStep_[frame] == 0) continue;  // UMANS writes the state after each step, never t = 0
                 const double* r = &tr.rows[(run.firstRow + k) * 4];
                 // UMANS streams doubles with the default ostream precision: 6 significant digits.
-                appendNumber(text, stepTime_[step]);
+                appendNumber(text, frameTime_[frame]);
                 for (int c = 0; c < 4; ++c) {
                     text += ',';
                     appendNumber(text, r[c]);
@@ -347,44 +500,37 @@ void TrajectoryRecorder::writeUmans(const fs::path& dir) const {
     }
 }
 
-void TrajectoryRecorder::writePedPy(const fs::path& file, double deltaTime) const {
-    AtomicFile f(file);
-    std::string text;
-    // PedPy reads the frame rate from the first number on a comment line containing "framerate"
-    // and the unit from "x/m"; comment lines must come before the data.
-    text += "# framerate: ";
-    appendNumber(text, 1.0 / deltaTime, 10);
-    text += "\n# x/m\n# y/m\n# z/m\n# id frame x y z\n";
+TrajectoryOutput::TrajectoryOutput(const fs::path& dir, const TrajectoryFormats& formats, double interval,
+                                   double deltaTime, bool velocities)
+    : dir_(dir), clock_(interval) {
+    if (formats.umans) umans_.emplace();
+    if (formats.txt) txt_.emplace(dir / "trajectories.txt", deltaTime);
+    // The header's interval is the nominal time between frames: never less than one coarse step.
+    if (formats.bin) bin_.emplace(dir / "trajectories.bin", deltaTime, interval > deltaTime ? interval : deltaTime, velocities);
+}
 
-    struct Cursor { std::size_t run = 0, k = 0; };
-    const std::vector<std::size_t> order = tracksById();
-    std::vector<Cursor> cursor(order.size());
-    const std::uint64_t steps = stepTime_.size();
-    for (std::uint64_t step = 0; step < steps; ++step) {
-        for (std::size_t o = 0; o < order.size(); ++o) {
-            const Track& tr = tracks_[order[o]];
-            Cursor& c = cursor[o];
-            if (c.run >= tr.runs.size()) continue;
-            const Run& run = tr.runs[c.run];
-            if (run.firstStep + c.k != step) continue;
-            const double* r = &tr.rows[(run.firstRow + c.k) * 4];
-            text += std::to_string(tr.id);
-            text += ' ';
-            text += std::to_string(step);
-            text += ' ';
-            appendFixed(text, r[0], 4);  // 0.1 mm: far below any pedestrian measurement
-            text += ' ';
-            appendFixed(text, r[1], 4);
-            text += " 0\n";
-            if (++c.k == run.count) { ++c.run; c.k = 0; }
-        }
-        if (text.size() > (1u << 20)) {  // stream in ~1 MB pieces instead of one huge string
-            f.write(text);
-            text.clear();
-        }
-    }
-    f.write(text);
-    f.commit();
+void TrajectoryOutput::record(const Simulation& sim) {
+    const std::uint64_t step = sim.coarseSteps();
+    if (frames_ > 0 && step == lastStep_) return;
+    lastStep_ = step;
+    ++frames_;
+    clock_.taken(sim.time());
+    if (umans_) umans_->record(sim);
+    if (txt_) txt_->writeFrame(sim);
+    if (bin_) bin_->writeFrame(sim);
+}
+
+bool TrajectoryOutput::maybeRecord(const Simulation& sim) {
+    if (!clock_.due(sim.time())) return false;
+    const std::size_t before = frames_;
+    record(sim);
+    return frames_ != before;
+}
+
+void TrajectoryOutput::commit() {
+    if (umans_) umans_->writeUmans(dir_);
+    if (txt_) txt_->commit();
+    if (bin_) bin_->commit();
 }
 
 // ---- summary -------------------------------------------------------------------------------

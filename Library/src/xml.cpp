@@ -409,12 +409,15 @@ const ParamTable& outputTable() {
         const OutputSpec d;
         ParamTable table = {
             ParamSpec::real("metrics_interval", "s", d.metricsInterval, 0, 1e300, "time between rows of metrics.csv"),
-            ParamSpec::choice("trajectories", {"umans", "txt", "both", "none"}, 3,
-                              "trajectory files: UMANS output_<id>.csv, PedPy trajectories.txt, both or none"),
+            // Absent: every coarse step (the default 0 stands for delta_time and is never parsed).
+            ParamSpec::real("trajectory_interval", "s", d.trajectoryInterval, 0, 1e300,
+                            "time between trajectory frames"),
+            ParamSpec::boolean("trajectory_velocities", d.trajectoryVelocities,
+                               "trajectories.bin records carry vx, vy too"),
             ParamSpec::integer("flow_first", d.flowFirst, 1, 1e300, "flow is measured from this evacuee"),
             ParamSpec::integer("flow_last", d.flowLast, 1, 1e300, "… to this evacuee"),
         };
-        table[0].minExclusive = true;
+        table[0].minExclusive = table[1].minExclusive = true;
         return table;
     }();
     return t;
@@ -464,14 +467,52 @@ void readWorld(LoadContext& ctx, const std::string& file, const XMLElement* el) 
     }
 }
 
+/// The shortest text that reads back as v ("0.1", not "0.10000000000000001").
+std::string shortestText(double v) {
+    char buf[64];
+    const auto res = std::to_chars(buf, buf + sizeof buf, v);
+    return std::string(buf, res.ptr);
+}
+
 void readOutput(LoadContext& ctx, const std::string& file, const XMLElement* el) {
-    ElementReader r(ctx, file, el, "Output", outputTable());
+    // trajectories is a word or a comma-separated list, which a ParamSpec choice cannot express:
+    // it is read here, outside the table.
+    ElementReader r(ctx, file, el, "Output", outputTable(), {"trajectories"});
     for (const XMLElement* c = el->FirstChildElement(); c != nullptr; c = c->NextSiblingElement())
         reportUnexpectedElement(ctx, file, c, el->Name(), {});
     OutputSpec& o = ctx.spec.output;
     o.loc = r.loc();
     o.metricsInterval = r.value("metrics_interval");
-    o.trajectories = r.spec("trajectories").choices[static_cast<std::size_t>(r.value("trajectories"))];
+    if (const std::optional<std::string> t = r.text("trajectories")) {
+        if (parseTrajectoryFormats(*t)) {
+            o.trajectories = *t;
+        } else {
+            std::string message = "Output@trajectories: '" + *t + "' is not one of: " + kTrajectoryFormatWords +
+                                  ", nor a comma-separated list of them such as txt,bin";
+            const std::string hint = closestMatch(*t, {"umans", "txt", "bin", "both", "none"});
+            if (!hint.empty()) message += " (did you mean '" + hint + "'?)";
+            r.error(r.loc("trajectories"), message);
+        }
+    }
+    if (const std::optional<double> interval = r.optional("trajectory_interval")) {
+        o.trajectoryInterval = *interval;
+        // Frames are taken on coarse steps: at the first one at or after each multiple of the
+        // interval. Shorter than a step, or between two, is allowed but rarely what was meant.
+        const double dt = ctx.spec.deltaTime;
+        const double steps = *interval / dt;
+        if (*interval < dt * (1 - 1e-9))
+            ctx.diags.warning(r.loc("trajectory_interval"),
+                              "Output@trajectory_interval (" + *r.text("trajectory_interval") +
+                                  " s) is shorter than delta_time (" + shortestText(dt) +
+                                  " s): trajectories are recorded every coarse step");
+        else if (std::fabs(steps - std::round(steps)) > 1e-9 * steps)
+            ctx.diags.warning(r.loc("trajectory_interval"),
+                              "Output@trajectory_interval (" + *r.text("trajectory_interval") +
+                                  " s) is not a whole multiple of delta_time (" + shortestText(dt) +
+                                  " s): frames are taken at the first coarse step at or after each multiple, "
+                                  "so they are unevenly spaced");
+    }
+    o.trajectoryVelocities = r.value("trajectory_velocities") != 0.0;
     o.flowFirst = static_cast<int>(r.value("flow_first"));
     o.flowLast = static_cast<int>(r.value("flow_last"));
     // A flow needs two distinct evacuees: (last − first)/(t_last − t_first).

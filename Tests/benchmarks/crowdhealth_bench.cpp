@@ -8,7 +8,9 @@
 // own (the parent never starts an OpenMP region, so forking is safe with libgomp).
 #include "crowdhealth/grid.h"
 #include "crowdhealth/kernels.h"
+#include "crowdhealth/output.h"
 #include "crowdhealth/registry.h"
+#include "crowdhealth/safety.h"
 #include "crowdhealth/scenario.h"
 #include "crowdhealth/simulation.h"
 
@@ -24,11 +26,13 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <functional>
 #include <iostream>
 #include <map>
 #include <memory>
+#include <optional>
 #include <random>
 #include <sstream>
 #include <string>
@@ -285,11 +289,8 @@ Result runSimCase(const Case& c) {
     std::snprintf(r.scene, sizeof r.scene, "%s", c.kind.c_str());
     r.n = static_cast<double>(c.n);
     r.threads = c.threads;
-    std::unique_ptr<Simulation> sim;
-    {
-        const ScenarioSpec spec = c.kind == "dense-sph" ? denseSph(c.n) : socialForces(c.n);
-        sim = std::make_unique<Simulation>(spec);
-    }  // the bench's copy of the spec is gone; the Simulation keeps its own
+    // The spec is built as a temporary and moved into the Simulation: one copy of a million agent specs.
+    auto sim = std::make_unique<Simulation>(c.kind == "dense-sph" ? denseSph(c.n) : socialForces(c.n));
     sim->setThreads(c.threads);
     for (int k = 0; k < c.warmup; ++k) sim->stepCoarse();
     resetPhases(*sim);
@@ -365,6 +366,82 @@ Result runNeighbourCase(const Case& c, double radius) {
     return r;
 }
 
+/// What a run's outputs cost per coarse step for the dense crowd of n agents after one step, on
+/// one thread (issue 6): one metrics.csv row as MetricsRecorder takes it (measureMetrics: density,
+/// crowd pressure grid, …, then the CSV text) and its two largest parts, SafetyRecorder::record
+/// (heat map and verdict, every coarse step), and one trajectory frame streamed to
+/// trajectories.bin (with or without velocities) or trajectories.txt. msMedian = mean ms per
+/// frame including the final flush and rename (the file goes to the page cache; a slow disk adds
+/// its own time), msMin = fastest frame, extra1 = MB per frame (10^6 bytes). Files go to a
+/// temporary folder, removed after.
+Result runOutputCase(const std::string& what, std::size_t n, int reps) {
+    namespace fs = std::filesystem;
+    Result r;
+    std::snprintf(r.kind, sizeof r.kind, "%s", "output");
+    std::snprintf(r.scene, sizeof r.scene, "%s", what.c_str());
+    r.n = static_cast<double>(n);
+    r.threads = 1;
+    Simulation sim(denseSph(n));
+    sim.setThreads(1);
+    sim.stepCoarse();  // densities, contacts and health of a real step
+    const fs::path dir = fs::temp_directory_path() / ("crowdhealth-bench-output-" + std::to_string(getpid()));
+    fs::create_directories(dir);
+
+    std::vector<double> ms;
+    double bytes = 0, total = 0;
+    auto timed = [&](const std::function<void()>& f) {
+        const auto t0 = Clock::now();
+        f();
+        const double d = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+        total += d;
+        return d;
+    };
+    if (what == "metrics row") {
+        for (int k = 0; k < reps; ++k) {
+            MetricsRecorder metrics(1.0);
+            std::string csv;
+            ms.push_back(timed([&] {
+                metrics.sample(sim);
+                csv = metrics.csv();
+            }));
+            bytes = static_cast<double>(csv.size() - csv.find('\n') - 1);  // the row, without the header
+        }
+    } else if (what == "  density h=1") {  // the parts of a metrics row
+        for (int k = 0; k < reps; ++k) ms.push_back(timed([&] { sim.measureDensity(1.0); }));
+    } else if (what == "  crowd field") {
+        const SafetyThresholds grid;
+        for (int k = 0; k < reps; ++k)
+            ms.push_back(timed([&] { (void)crowdField(sim.agents(), grid.cellSize, grid.gaussianRadius); }));
+    } else if (what == "safety record") {
+        // It records once per simulated time: a step between two records (not timed).
+        SafetyRecorder safety;
+        for (int k = 0; k < reps; ++k) {
+            ms.push_back(timed([&] { safety.record(sim); }));
+            sim.stepCoarse();
+        }
+    } else {
+        const fs::path file = dir / (what == "txt frame" ? "trajectories.txt" : "trajectories.bin");
+        std::optional<BinaryTrajectoryWriter> bin;
+        std::optional<PedPyTrajectoryWriter> txt;
+        if (what == "txt frame") txt.emplace(file, sim.deltaTime());
+        else bin.emplace(file, sim.deltaTime(), sim.deltaTime(), what == "bin+v frame");
+        const auto headerBytes = fs::file_size(file.string() + ".tmp");
+        for (int k = 0; k < reps; ++k)
+            ms.push_back(timed([&] { txt ? txt->writeFrame(sim) : bin->writeFrame(sim); }));
+        timed([&] { txt ? txt->commit() : bin->commit(); });
+        bytes = static_cast<double>(fs::file_size(file) - headerBytes) / reps;
+    }
+    fs::remove_all(dir);
+    r.msMedian = total / reps;
+    r.msMin = *std::min_element(ms.begin(), ms.end());
+    r.msMax = *std::max_element(ms.begin(), ms.end());
+    r.extra1 = bytes / 1e6;
+    r.hwmMiB = statusKiB("VmHWM") / 1024.0;
+    r.rssMiB = statusKiB("VmRSS") / 1024.0;
+    r.ok = true;
+    return r;
+}
+
 /// Runs f in a forked child and returns its Result (or !ok if the child failed).
 Result inChild(const std::function<Result()>& f, bool fork) {
     if (!fork) return f();
@@ -414,7 +491,7 @@ void usage() {
                  "  --large         also the 1M-agent dense SPH crowd\n"
                  "  --threads LIST  thread counts, comma separated (default 1,2)\n"
                  "  --steps N       timed steps per case (default: by size)\n"
-                 "  --only TEXT     run only cases whose name contains TEXT (dense, social, neigh)\n"
+                 "  --only TEXT     run only cases whose name contains TEXT (dense, social, neigh, output)\n"
                  "  --csv FILE      also write every row as CSV\n"
                  "  --no-fork       run cases in this process (peak memory then accumulates)\n";
 }
@@ -473,7 +550,10 @@ int main(int argc, char** argv) {
             return;
         }
         results.push_back(r);
-        if (std::strcmp(r.kind, "neighbours") == 0) {
+        if (std::strcmp(r.kind, "output") == 0) {
+            std::printf("%-14s %8.0f %3.0f  %9.3f ms/frame (min %8.3f)  %9.3g MB/frame  VmHWM %7.1f MiB\n", r.scene,
+                        r.n, r.threads, r.msMedian, r.msMin, r.extra1, r.hwmMiB);
+        } else if (std::strcmp(r.kind, "neighbours") == 0) {
             std::printf("%-14s %8.0f %3.0f  build %8.3f ms  query %7.1f ns/agent (%5.1f hits)  VmHWM %7.1f MiB\n",
                         r.scene, r.n, r.threads, r.extra1, r.extra2, r.pairsPerAgent, r.hwmMiB);
         } else {
@@ -511,6 +591,17 @@ int main(int argc, char** argv) {
                 stepsFor(n, c.warmup, c.steps);
                 report(inChild([&] { return runNeighbourCase(c, radius); }, fork));
             }
+
+    if (wanted("output")) {
+        // One frame of the largest crowd of the run (100k agents; --quick: 10k).
+        const std::size_t n = sizes[std::min<std::size_t>(2, sizes.size() - 1)];
+        const int reps = quick ? 3 : 10;
+        std::printf("\noutput cost per coarse step (dense crowd after one step, 1 thread; mean ms per frame "
+                    "including the flush, MB per frame)\n");
+        for (const char* what :
+             {"metrics row", "  density h=1", "  crowd field", "safety record", "bin frame", "bin+v frame", "txt frame"})
+            report(inChild([&] { return runOutputCase(what, n, reps); }, fork));
+    }
 
     // Phase breakdown (mean ms per step over the timed steps).
     std::printf("\nphase breakdown (mean ms per step)\n%-14s %8s %3s", "scene", "agents", "thr");

@@ -1,18 +1,19 @@
 // CrowdHealth — recorders and writers for a run's outputs (DESIGN §6): metrics.csv,
-// evacuations.csv, summary.json and trajectories (UMANS per-agent CSV, PedPy text).
+// evacuations.csv, summary.json and trajectories (UMANS per-agent CSV, PedPy text, compact binary).
 //
 // Reusable by any program that embeds a Simulation:
 //
 //     ch::MetricsRecorder metrics(spec.output.metricsInterval);
-//     ch::TrajectoryRecorder traj;
+//     ch::TrajectoryOutput traj(dir, formats, spec.output.trajectoryInterval, sim.deltaTime());
 //     metrics.sample(sim); traj.record(sim);            // t = 0
-//     while (!sim.finished()) { sim.stepCoarse(); metrics.maybeSample(sim); traj.record(sim); }
-//     metrics.finish(sim);
-//     metrics.write(dir / "metrics.csv"); traj.writeUmans(dir); ...
+//     while (!sim.finished()) { sim.stepCoarse(); metrics.maybeSample(sim); traj.maybeRecord(sim); }
+//     metrics.finish(sim); traj.finish(sim);
+//     metrics.write(dir / "metrics.csv"); traj.commit(); ...
 //
 // Every file is written whole or not at all: the text goes to `<name>.tmp` in the same folder,
 // which is renamed over `<name>` only once it is complete and flushed (rename is atomic within a
-// file system), so a crash or Ctrl-C never leaves a half-written file under the final name.
+// file system), so a crash or Ctrl-C never leaves a half-written file under the final name. The
+// streamed trajectory files grow in their `.tmp` during the run and are renamed at its end.
 //
 // Numbers are written with std::to_chars (locale-independent, general format, a fixed number of
 // significant digits) and every sum runs in agent order, so the files are byte-identical for the
@@ -86,6 +87,26 @@ private:
 /// Writes `content` to `target` atomically (AtomicFile in one call).
 void writeFileAtomic(const std::filesystem::path& target, std::string_view content);
 
+// ---- sampling times ------------------------------------------------------------------------
+
+/// When an output taken every `interval` seconds of simulated time is due: at the first coarse
+/// step at or after each multiple of the interval (times are compared with a relative tolerance
+/// of 1e-9, since 3·0.1 is 0.30000000000000004). Shared by metrics.csv and the trajectories.
+class SampleClock {
+public:
+    /// `interval` in s; ≤ 0 or NaN: every time is due.
+    explicit SampleClock(double interval) : interval_(interval) {}
+    /// True when a sample is due at simulated time t (s).
+    bool due(double t) const;
+    /// Notes a sample taken at t: the next is due at the first multiple of the interval after t.
+    void taken(double t);
+    double interval() const { return interval_; }
+
+private:
+    double interval_;
+    std::uint64_t nextIndex_ = 0;  ///< the next sample is due at nextIndex_·interval_
+};
+
 // ---- metrics -------------------------------------------------------------------------------
 
 /// The header of metrics.csv (no trailing newline).
@@ -153,9 +174,9 @@ public:
     void write(const std::filesystem::path& file) const { writeFileAtomic(file, csv()); }
 
 private:
-    double interval_, h_;
+    SampleClock clock_;
+    double h_;
     std::vector<std::string> scheduleColumns_;  ///< taken from the simulation at the first sample
-    std::uint64_t nextIndex_ = 0;  ///< the next sample is due at nextIndex_·interval_
     std::vector<MetricsRow> rows_;
 };
 
@@ -166,11 +187,96 @@ std::string evacuationsCsv(const Simulation& sim);
 
 // ---- trajectories --------------------------------------------------------------------------
 
-/// Buffers every agent's state once per coarse step, then writes the trajectories at the end
-/// (one file per agent must not mean one open file per agent).
+/// The file layout of trajectories.bin (all numbers little-endian, no padding):
 ///
-/// Memory: 32 bytes per agent per coarse step (x, y, dir_x, dir_y as doubles; time is shared per
-/// step), e.g. 400 agents × 1200 steps ≈ 15 MB.
+///     header, 32 bytes:
+///       0  char[6]  magic "CHTRJ1"
+///       6  uint16   version (1)
+///       8  uint32   flags: bit 0 = the records carry vx, vy
+///      12  uint32   record size in bytes: 12, or 20 with velocities
+///      16  float64  delta_time (s): the coarse step; time = step · delta_time
+///      24  float64  nominal time between frames (s): the trajectory interval, at least delta_time
+///     then frames until the end of the file, each:
+///       float64  time (s)
+///       uint32   step: coarse steps since t = 0 (the PedPy frame number)
+///       uint32   n: agents in the world
+///       n records, by increasing id: uint32 id, float32 x, float32 y (m) [, float32 vx, vy (m/s)]
+///
+/// The frame count is not stored (frames are written while the run goes on): read frames until
+/// the end of the file. The file is complete when it has its final name (AtomicFile).
+namespace trajbin {
+inline constexpr char kMagic[6] = {'C', 'H', 'T', 'R', 'J', '1'};
+inline constexpr std::uint16_t kVersion = 1;
+inline constexpr std::uint32_t kFlagVelocities = 1;
+inline constexpr std::size_t kHeaderBytes = 32;
+inline constexpr std::size_t kFrameHeaderBytes = 16;
+/// The largest agent id (and coarse step) the file can hold.
+inline constexpr std::uint64_t kMaxId = 0xffffffffu;
+/// Bytes of one record with or without velocities.
+inline constexpr std::size_t recordBytes(bool velocities) { return velocities ? 20 : 12; }
+}  // namespace trajbin
+
+/// One frame of a trajectory file read back (readBinaryTrajectories).
+struct TrajectoryFrame {
+    double time = 0;          ///< s
+    std::uint64_t step = 0;   ///< coarse steps since t = 0
+    std::vector<std::uint32_t> id;
+    std::vector<float> x, y;  ///< m
+    std::vector<float> vx, vy;  ///< m/s; empty unless the file carries velocities
+};
+
+/// The content of a trajectories.bin.
+struct BinaryTrajectories {
+    std::uint32_t flags = 0;
+    double deltaTime = 0, interval = 0;  ///< s
+    std::vector<TrajectoryFrame> frames;
+};
+
+/// Reads a whole trajectories.bin. Throws OutputError (naming the file and the byte offset) when
+/// it cannot be read, is not such a file, or ends inside a frame.
+BinaryTrajectories readBinaryTrajectories(const std::filesystem::path& file);
+
+/// Streams trajectories.bin frame by frame while the run goes on (memory: one frame), into
+/// `<file>.tmp`, renamed by commit(); see trajbin for the layout.
+class BinaryTrajectoryWriter {
+public:
+    /// Opens the temporary file and writes the header. Throws OutputError.
+    BinaryTrajectoryWriter(std::filesystem::path file, double deltaTime, double interval, bool velocities);
+    /// Appends the current state as one frame (every agent in the world, by increasing id).
+    /// Throws OutputError when an id or the step does not fit in a uint32 (kMaxId).
+    void writeFrame(const Simulation& sim);
+    void commit() { file_.commit(); }
+
+private:
+    AtomicFile file_;
+    bool velocities_;
+    std::string buffer_;  ///< one frame, reused
+    std::vector<std::size_t> order_;  ///< agent indices by id, reused
+};
+
+/// Streams a PedPy-readable trajectories.txt frame by frame (`# framerate: <1/delta_time>`,
+/// `# x/m`, `# y/m`, `# z/m`, then rows `id frame x y z` with z = 0 and frame = coarse step
+/// index, frame 0 = t = 0, in frame order then id order, positions with 4 decimals) into
+/// `<file>.tmp`, renamed by commit().
+class PedPyTrajectoryWriter {
+public:
+    /// Opens the temporary file and writes the comment lines. Throws OutputError.
+    PedPyTrajectoryWriter(std::filesystem::path file, double deltaTime);
+    /// Appends the rows of the current coarse step.
+    void writeFrame(const Simulation& sim);
+    void commit() { file_.commit(); }
+
+private:
+    AtomicFile file_;
+    std::string buffer_;
+    std::vector<std::size_t> order_;
+};
+
+/// Buffers every agent's state at each recorded frame for UMANS' per-agent files, written at the
+/// end (one file per agent must not mean one open file per agent). Meant for small runs.
+///
+/// Memory: 32 bytes per agent per recorded frame (x, y, dir_x, dir_y as doubles; time is shared
+/// per frame), e.g. 400 agents × 1200 frames ≈ 15 MB.
 class TrajectoryRecorder {
 public:
     /// Records every active agent at the current coarse step (sim.coarseSteps()). Calling it twice
@@ -179,37 +285,72 @@ public:
 
     /// Agents seen so far.
     std::size_t agentCount() const { return tracks_.size(); }
-    /// Coarse steps recorded so far (including step 0 if recorded).
-    std::size_t stepCount() const { return stepsRecorded_; }
+    /// Frames recorded so far (including step 0 if recorded).
+    std::size_t frameCount() const { return frameTime_.size(); }
 
     /// UMANS' format: one `output_<id>.csv` per agent in `dir`, rows `time,x,y,dir_x,dir_y`, no
-    /// header, one row per coarse step while the agent is in the world, without the t = 0 row
+    /// header, one row per recorded frame while the agent is in the world, without the t = 0 row
     /// (UMANS records after each step). Each file is written atomically.
     void writeUmans(const std::filesystem::path& dir) const;
-    /// PedPy-readable text (`# framerate: <1/delta_time>`, `# x/m`, `# y/m`, `# z/m`, then rows
-    /// `id frame x y z` with z = 0 and frame = coarse step index, frame 0 = t = 0), in frame order
-    /// then id order. Written atomically.
-    void writePedPy(const std::filesystem::path& file, double deltaTime) const;
 
 private:
     struct Run {
-        std::uint64_t firstStep;  ///< coarse step of the run's first row
-        std::size_t firstRow;     ///< index into rows
+        std::size_t firstFrame;  ///< index into frameTime_ of the run's first row
+        std::size_t firstRow;    ///< index into rows
         std::size_t count;
     };
     struct Track {
         AgentId id;
         std::vector<Run> runs;  ///< usually one: agents are in the world for one contiguous span
-        std::vector<double> rows;  ///< x, y, dir_x, dir_y per recorded step
+        std::vector<double> rows;  ///< x, y, dir_x, dir_y per recorded frame
     };
     std::vector<Track> tracks_;
     std::unordered_map<AgentId, std::size_t> trackOf_;
-    std::vector<double> stepTime_;  ///< simulated time (s) of each recorded coarse step (NaN: none)
-    std::size_t stepsRecorded_ = 0;
-    bool any_ = false;
-    std::uint64_t lastStep_ = 0;
+    std::vector<double> frameTime_;   ///< simulated time (s) of each recorded frame
+    std::vector<std::uint64_t> frameStep_;  ///< coarse step of each recorded frame
+};
 
-    std::vector<std::size_t> tracksById() const;
+/// The trajectory files of a run: a frame at t = 0 (record()), one at the first coarse step at or
+/// after each multiple of the interval (maybeRecord()), and the final state (finish()). The text
+/// and binary files are streamed to their temporary files as frames come; the UMANS files are
+/// buffered (TrajectoryRecorder). commit() completes them all; destroying it before leaves no
+/// file behind (only a previous run's files, untouched).
+///
+///     ch::TrajectoryOutput traj(dir, *ch::parseTrajectoryFormats("txt,bin"), interval, sim.deltaTime());
+///     traj.record(sim);
+///     while (!sim.finished()) { sim.stepCoarse(); traj.maybeRecord(sim); }
+///     traj.finish(sim);
+///     traj.commit();
+class TrajectoryOutput {
+public:
+    /// Opens the files of `formats` in `dir` (output_<id>.csv, trajectories.txt, trajectories.bin).
+    /// `interval` in s (≤ 0: every coarse step); `velocities`: trajectories.bin carries vx, vy.
+    /// Throws OutputError when a file cannot be created.
+    TrajectoryOutput(const std::filesystem::path& dir, const TrajectoryFormats& formats, double interval,
+                     double deltaTime, bool velocities = false);
+    TrajectoryOutput(const TrajectoryOutput&) = delete;
+    TrajectoryOutput& operator=(const TrajectoryOutput&) = delete;
+
+    /// Records a frame now (unless this coarse step already has one).
+    void record(const Simulation& sim);
+    /// Records a frame when one is due. Returns true if it did.
+    bool maybeRecord(const Simulation& sim);
+    /// Records the final state if it is not already a frame.
+    void finish(const Simulation& sim) { record(sim); }
+    /// Writes the UMANS files and renames the streamed files to their final names.
+    void commit();
+
+    /// Frames recorded so far.
+    std::size_t frameCount() const { return frames_; }
+
+private:
+    std::filesystem::path dir_;
+    SampleClock clock_;
+    std::optional<TrajectoryRecorder> umans_;
+    std::optional<PedPyTrajectoryWriter> txt_;
+    std::optional<BinaryTrajectoryWriter> bin_;
+    std::uint64_t lastStep_ = 0;  ///< coarse step of the last frame
+    std::size_t frames_ = 0;
 };
 
 // ---- summary -------------------------------------------------------------------------------

@@ -160,10 +160,31 @@ struct AgentSpec {
 
 struct OutputSpec {
     double metricsInterval = 1.0;     ///< s between rows of metrics.csv
-    std::string trajectories = "none";  ///< "umans", "txt", "both" or "none"
+    /// "umans", "txt", "bin", "both" (umans and txt), "none", or a comma-separated list such as
+    /// "txt,bin" (parseTrajectoryFormats()).
+    std::string trajectories = "none";
+    /// s between trajectory frames; 0 (attribute absent) = every coarse step (delta_time).
+    double trajectoryInterval = 0;
+    bool trajectoryVelocities = false;  ///< trajectories.bin records carry vx, vy as well
     int flowFirst = 1, flowLast = 350;  ///< flow is measured from the Nth to the Mth evacuee
     SourceLoc loc;
 };
+
+/// The trajectory files a run writes (<Output trajectories>, crowdhealth --trajectories).
+struct TrajectoryFormats {
+    bool umans = false;  ///< one output_<id>.csv per agent (UMANS)
+    bool txt = false;    ///< trajectories.txt (PedPy)
+    bool bin = false;    ///< trajectories.bin (compact binary, see crowdhealth/output.h)
+    bool any() const { return umans || txt || bin; }
+};
+
+/// The words parseTrajectoryFormats() accepts, for messages: "umans, txt, bin, both, none".
+inline constexpr const char* kTrajectoryFormatWords = "umans, txt, bin, both, none";
+
+/// Reads a trajectory choice: one of umans, txt, bin, both (= umans and txt) or none, or a
+/// comma-separated list of umans, txt, bin and both (e.g. "txt,bin"; spaces around the commas are
+/// allowed). nullopt when a word is unknown, empty, or "none" is combined with another.
+std::optional<TrajectoryFormats> parseTrajectoryFormats(const std::string& text);
 
 /// Everything needed to build a Simulation.
 struct ScenarioSpec {
