@@ -77,15 +77,3 @@ BOOST_AUTO_TEST_CASE(flow_counts_persons_between_the_first_and_last_evacuee) {
     BOOST_TEST(!ch::evacuationFlow(same, 1, 2).has_value());  // no time elapsed
 }
 
-namespace {
-/// An AgentStore with n agents on a line 0.5 m apart and the given velocities.
-ch::AgentStore line(const std::vector<ch::Vec2>& velocities) {
-    ch::AgentStore a;
-    for (std::size_t i = 0; i < velocities.size(); ++i) {
-        a.id.push_back(static_cast<ch::AgentId>(i));
-        a.pos.emplace_back(0.5 * static_cast<double>(i), 0.0);
-        a.vel.push_back(velocities[i]);
-    }
-    return a;
-}
-}  // namespace

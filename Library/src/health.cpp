@@ -247,8 +247,12 @@ void HealthLayer::steerPreferred(AgentStore& agents, const PointGrid& grid, doub
 
 void HealthLayer::endStep(const AgentStore& agents, double time, double dt) {
     const std::size_t n = agents.size();
-    bool anyAbove = false;
-    for (std::size_t i = 0; i < n; ++i) {
+    const std::ptrdiff_t count = static_cast<std::ptrdiff_t>(n);
+    above_.resize(n);
+    // Per agent, in parallel: each iteration writes only its own record and flag.
+#pragma omp parallel for schedule(static) if (count >= kParallelMin)
+    for (std::ptrdiff_t ii = 0; ii < count; ++ii) {
+        const std::size_t i = static_cast<std::size_t>(ii);
         HealthRecord& r = record(agents, i);
         const HealthParams& hp = params_[static_cast<std::size_t>(agents.policy[i])];
         const double a = agents.contactAccel[i].norm();
@@ -256,22 +260,11 @@ void HealthLayer::endStep(const AgentStore& agents, double time, double dt) {
         r.lastForce = force;
         r.peakContactAccel = std::max(r.peakContactAccel, a);
         r.peakForce = std::max(r.peakForce, force);
-        if (force > hp.crushThreshold) {
+        above_[i] = force > hp.crushThreshold ? 1 : 0;
+        if (above_[i]) {
             r.timeAboveThreshold += dt;
             r.dose += force * dt;
             if (!r.injured() && r.dose >= hp.injuryDose) r.injuredAt = time;
-            const Vec2& x = agents.pos[i];
-            if (crush_.samples == 0) {
-                crush_.xmin = crush_.xmax = x.x();
-                crush_.ymin = crush_.ymax = x.y();
-            }
-            crush_.xmin = std::min(crush_.xmin, x.x());
-            crush_.xmax = std::max(crush_.xmax, x.x());
-            crush_.ymin = std::min(crush_.ymin, x.y());
-            crush_.ymax = std::max(crush_.ymax, x.y());
-            crush_.positionSum += x;
-            ++crush_.samples;
-            anyAbove = true;
         }
         const Vec2& v = agents.vel[i];
         const double s = v.norm();
@@ -287,6 +280,23 @@ void HealthLayer::endStep(const AgentStore& agents, double time, double dt) {
         } else {
             r.lastHeading = Vec2(0, 0);
         }
+    }
+    // The crowd-level crush summary in agent order (sums in a fixed order: thread-count independent).
+    bool anyAbove = false;
+    for (std::size_t i = 0; i < n; ++i) {
+        if (!above_[i]) continue;
+        const Vec2& x = agents.pos[i];
+        if (crush_.samples == 0) {
+            crush_.xmin = crush_.xmax = x.x();
+            crush_.ymin = crush_.ymax = x.y();
+        }
+        crush_.xmin = std::min(crush_.xmin, x.x());
+        crush_.xmax = std::max(crush_.xmax, x.x());
+        crush_.ymin = std::min(crush_.ymin, x.y());
+        crush_.ymax = std::max(crush_.ymax, x.y());
+        crush_.positionSum += x;
+        ++crush_.samples;
+        anyAbove = true;
     }
     if (anyAbove) {
         if (!(crush_.firstTime == crush_.firstTime)) crush_.firstTime = time - dt;
