@@ -308,10 +308,9 @@ void Simulation::setPreferredVelocities() {
 
 void Simulation::evaluateAgents(bool coarseBoundary) {
     const std::size_t n = agents_.size();
-    queries_.resize(static_cast<std::size_t>(std::max(1, omp_get_max_threads())));
 #pragma omp parallel
     {
-        AgentQuery& q = queries_[static_cast<std::size_t>(omp_get_thread_num())];
+        AgentQuery q;  // per thread, on its own stack (no shared cache lines); its spans allocate nothing
 #pragma omp for schedule(static)
         for (std::ptrdiff_t ii = 0; ii < static_cast<std::ptrdiff_t>(n); ++ii) {
             const std::size_t i = static_cast<std::size_t>(ii);

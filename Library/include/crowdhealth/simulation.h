@@ -158,7 +158,6 @@ private:
     std::vector<unsigned char> stopped_;  ///< 1: at its goal with a stopAtGoal step (stands still)
     std::vector<unsigned char> remove_;   ///< removal marks (reused)
     std::vector<Vec2> nextPos_, nextVel_, nextView_, nextContact_;
-    std::vector<AgentQuery> queries_;  ///< one per OpenMP thread, reused across steps
     std::array<double, kPhases> phaseSeconds_{};
 
     // CrowdHealth layer and schedule (<Schedule><Ramp>)
