@@ -73,6 +73,26 @@ void PointGrid::build(const std::vector<Vec2>& points, double cellSize, bool per
     }
 }
 
+std::size_t PointGrid::candidateCount(const Vec2& p, double radius) const {
+    if (points_ == nullptr || sorted_.empty()) return 0;
+    std::size_t total = 0;
+    if (!periodic_) {
+        const CellBox b = boxAround(p, radius);
+        if (b.x0 > b.x1) return 0;
+        for (int y = b.y0; y <= b.y1; ++y)
+            total += static_cast<std::size_t>(cellStart_[y * nx_ + b.x1 + 1] - cellStart_[y * nx_ + b.x0]);
+        return total;
+    }
+    int cx, cy, sx, sy;
+    periodicSpan(p, radius, cx, cy, sx, sy);
+    for (int oy = 0; oy < sy; ++oy)
+        for (int ox = 0; ox < sx; ++ox) {
+            const int c = ((cy + oy) % ny_ + ny_) % ny_ * nx_ + ((cx + ox) % nx_ + nx_) % nx_;
+            total += static_cast<std::size_t>(cellStart_[c + 1] - cellStart_[c]);
+        }
+    return total;
+}
+
 std::vector<int> PointGrid::within(const Vec2& p, double radius) const {
     std::vector<int> out;
     forEachWithin(p, radius, [&](int j, const Vec2&, double) { out.push_back(j); });

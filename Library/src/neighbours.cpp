@@ -42,17 +42,18 @@ void NeighbourLists::build(const std::vector<Vec2>& positions, const PointGrid& 
             const std::size_t i = static_cast<std::size_t>(ii);
             const int self = static_cast<int>(i);
             const double r = rangeOfGroup[static_cast<std::size_t>(group[i])];
-            Place at = out.start();
+            Place at;
+            NeighbourAgent* list = out.open(at, grid.candidateCount(positions[i], r));
             std::size_t count = 0;
             grid.forEachWithin(positions[i], r, [&](int j, const Vec2& d, double d2) {
-                if (j == self) return;
-                out.push(at, NeighbourAgent{d, std::sqrt(d2), j});
-                ++count;
+                if (j != self) list[count++] = NeighbourAgent{d, std::sqrt(d2), j};
             });
+            out.close(at, count);
             agentSlice_[i] = slice(t, at, count);
             world.segmentsNear(positions[i], r, near);
-            Place sat = segOut.start();
-            for (int s : near) segOut.push(sat, s);
+            Place sat;
+            std::copy(near.begin(), near.end(), segOut.open(sat, near.size()));
+            segOut.close(sat, near.size());
             segmentSlice_[i] = slice(t, sat, near.size());
         }
     }

@@ -25,6 +25,9 @@ public:
     template <class F>
     void forEachWithin(const Vec2& p, double radius, F&& f) const;
 
+    /// How many points forEachWithin(p, radius, f) examines: an upper bound of how many it reports.
+    std::size_t candidateCount(const Vec2& p, double radius) const;
+
     /// Collects the indices within radius (for tests and simple callers).
     std::vector<int> within(const Vec2& p, double radius) const;
 
@@ -50,6 +53,29 @@ private:
         return v >= n ? n : static_cast<int>(v);
     }
     int cellY(double y) const { return static_cast<int>(std::floor((y - origin_.y()) / ch_)); }
+
+    /// Cells touched by the query disc's bounding box (plane only), padded by 1 µm so that
+    /// rounding never drops a point at exactly `radius`; x0 > x1 when it misses the grid.
+    struct CellBox {
+        int x0, x1, y0, y1;
+    };
+    CellBox boxAround(const Vec2& p, double radius) const {
+        const double reach = radius + 1e-6;
+        const double ix = 1.0 / cw_, iy = 1.0 / ch_;
+        return CellBox{std::max(0, floorClamped((p.x() - reach - origin_.x()) * ix, nx_)),
+                       std::min(nx_ - 1, floorClamped((p.x() + reach - origin_.x()) * ix, nx_)),
+                       std::max(0, floorClamped((p.y() - reach - origin_.y()) * iy, ny_)),
+                       std::min(ny_ - 1, floorClamped((p.y() + reach - origin_.y()) * iy, ny_))};
+    }
+    /// Periodic queries: the first cell and the number of cells visited along x and y.
+    void periodicSpan(const Vec2& p, double radius, int& cx, int& cy, int& sx, int& sy) const {
+        const int rx = static_cast<int>(std::ceil(radius / cw_));
+        const int ry = static_cast<int>(std::ceil(radius / ch_));
+        cx = cellX(p.x()) - rx;
+        cy = cellY(p.y()) - ry;
+        sx = std::min(2 * rx + 1, nx_);
+        sy = std::min(2 * ry + 1, ny_);
+    }
 };
 
 /// Static wall segments bucketed in square cells (built once).
@@ -77,23 +103,18 @@ void PointGrid::forEachWithin(const Vec2& query, double radius, F&& f) const {
     const Vec2 p = query;  // a local copy: f may store to memory the query point could alias
     const double r2 = radius * radius;
     if (!periodic_) {
-        // Only the cells touched by the query disc's bounding box, padded by 1 µm so that rounding
-        // never drops a point at exactly `radius`. Cells of one row are contiguous in sorted_, so
-        // each row is one run over sortedPos_. The visit order (rows, then cells, then ascending
-        // index) is the same as scanning whole cells, so sums over neighbours do not change.
+        // Only the cells touched by the query disc's bounding box (boxAround). Cells of one row
+        // are contiguous in sorted_, so each row is one run over sortedPos_. The visit order (rows,
+        // then cells, then ascending index) is the same as scanning whole cells, so sums over
+        // neighbours do not change.
         // (Multiplying by the inverse cell size may round differently from the division used to
         // bin the points, by far less than the pad.)
-        const double reach = radius + 1e-6;
-        const double ix = 1.0 / cw_, iy = 1.0 / ch_;
-        const int x0 = std::max(0, floorClamped((p.x() - reach - origin_.x()) * ix, nx_));
-        const int x1 = std::min(nx_ - 1, floorClamped((p.x() + reach - origin_.x()) * ix, nx_));
-        const int y0 = std::max(0, floorClamped((p.y() - reach - origin_.y()) * iy, ny_));
-        const int y1 = std::min(ny_ - 1, floorClamped((p.y() + reach - origin_.y()) * iy, ny_));
-        if (x0 > x1) return;
-        for (int y = y0; y <= y1; ++y) {
+        const CellBox b = boxAround(p, radius);
+        if (b.x0 > b.x1) return;
+        for (int y = b.y0; y <= b.y1; ++y) {
             const int row = y * nx_;
-            const int end = cellStart_[row + x1 + 1];
-            for (int k = cellStart_[row + x0]; k < end; ++k) {
+            const int end = cellStart_[row + b.x1 + 1];
+            for (int k = cellStart_[row + b.x0]; k < end; ++k) {
                 const Vec2 d = sortedPos_[k] - p;
                 const double d2 = d.squaredNorm();
                 if (d2 <= r2) f(sorted_[k], d, d2);
@@ -101,16 +122,14 @@ void PointGrid::forEachWithin(const Vec2& query, double radius, F&& f) const {
         }
         return;
     }
-    const int rx = static_cast<int>(std::ceil(radius / cw_));
-    const int ry = static_cast<int>(std::ceil(radius / ch_));
-    const int cx = cellX(p.x()), cy = cellY(p.y());
     // Periodic: visit each distinct wrapped cell once, then use the minimum-image offset.
     // (With radius > half a period only the nearest image of each point is reported.)
-    const int sx = std::min(2 * rx + 1, nx_), sy = std::min(2 * ry + 1, ny_);
+    int cx, cy, sx, sy;
+    periodicSpan(p, radius, cx, cy, sx, sy);
     for (int oy = 0; oy < sy; ++oy)
         for (int ox = 0; ox < sx; ++ox) {
-            const int x = ((cx - rx + ox) % nx_ + nx_) % nx_;
-            const int y = ((cy - ry + oy) % ny_ + ny_) % ny_;
+            const int x = ((cx + ox) % nx_ + nx_) % nx_;
+            const int y = ((cy + oy) % ny_ + ny_) % ny_;
             const int c = y * nx_ + x;
             for (int k = cellStart_[c]; k < cellStart_[c + 1]; ++k) {
                 const int j = sorted_[k];

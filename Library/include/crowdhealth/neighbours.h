@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -56,53 +57,44 @@ private:
         std::size_t block = 0, begin = 0;
     };
 
-    /// Append-only storage made of blocks that never reallocate: a list that does not fit in the
-    /// current block moves whole to the next one, so every list is contiguous, views stay valid,
-    /// and memory is the lists' size plus a little slack (no doubling, no copy peak).
+    /// Append-only storage made of blocks that never reallocate. A list is written in place after
+    /// asking for room for its largest possible size (the grid's candidate count); if the current
+    /// block lacks that room the list starts in the next block. So every list is contiguous,
+    /// views stay valid, nothing is copied, and memory is the lists' size plus a little slack.
     template <class T>
     class BlockBuffer {
     public:
         /// Forgets the contents, keeps the blocks.
         void clear() {
-            for (std::vector<T>& b : blocks_) b.clear();
+            for (Block& b : blocks_) b.used = 0;
             current_ = 0;
         }
-        /// Where the next list starts.
-        Place start() {
-            if (blocks_.empty()) grow(0, kBlock);
-            return Place{current_, blocks_[current_].size()};
-        }
-        /// Appends to the list that started at `at` (moves the list, and `at`, when the block is full).
-        void push(Place& at, const T& value) {
-            std::vector<T>* b = &blocks_[at.block];
-            if (b->size() == b->capacity()) {
-                const std::size_t have = b->size() - at.begin;
-                grow(at.block + 1, std::max(kBlock, 2 * (have + 1)));  // may move blocks_ itself
-                b = &blocks_[at.block];
-                std::vector<T>& next = blocks_[at.block + 1];
-                next.insert(next.end(), b->begin() + static_cast<std::ptrdiff_t>(at.begin), b->end());
-                b->resize(at.begin);
-                at = Place{at.block + 1, 0};
-                current_ = at.block;
-                b = &next;
+        /// Room for up to `most` entries of a new list: sets `at` and returns where to write.
+        T* open(Place& at, std::size_t most) {
+            if (blocks_.empty()) blocks_.emplace_back();
+            if (blocks_[current_].used + most > blocks_[current_].capacity && blocks_[current_].used > 0) {
+                ++current_;
+                if (blocks_.size() <= current_) blocks_.emplace_back();
             }
-            b->push_back(value);
+            Block& b = blocks_[current_];
+            if (b.capacity < b.used + most) {  // a fresh or too small (empty) block
+                b.capacity = std::max(kBlock, most);
+                b.data = std::make_unique_for_overwrite<T[]>(b.capacity);
+            }
+            at = Place{current_, b.used};
+            return b.data.get() + b.used;
         }
-        const T* data(std::uint32_t block, std::uint32_t begin) const { return blocks_[block].data() + begin; }
+        /// The list opened at `at` holds `count` entries.
+        void close(const Place& at, std::size_t count) { blocks_[at.block].used = at.begin + count; }
+        const T* data(std::uint32_t block, std::uint32_t begin) const { return blocks_[block].data.get() + begin; }
 
     private:
         static constexpr std::size_t kBlock = std::size_t{1} << 16;  ///< entries per block
-        /// Makes block k exist, empty, with room for at least `capacity` entries.
-        void grow(std::size_t k, std::size_t capacity) {
-            if (blocks_.size() <= k) blocks_.resize(k + 1);
-            blocks_[k].clear();
-            if (blocks_[k].capacity() < capacity) {
-                std::vector<T> fresh;
-                fresh.reserve(capacity);
-                blocks_[k].swap(fresh);
-            }
-        }
-        std::vector<std::vector<T>> blocks_;
+        struct Block {
+            std::unique_ptr<T[]> data;
+            std::size_t capacity = 0, used = 0;
+        };
+        std::vector<Block> blocks_;
         std::size_t current_ = 0;
     };
 
