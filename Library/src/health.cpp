@@ -145,6 +145,7 @@ void HealthLayer::init(const ScenarioSpec& spec) {
     events_ = spec.panicEvents;
     eventFired_.assign(events_.size(), 0);
     crush_ = CrushSummary{};
+    maxPanic_ = 0;
 }
 
 void HealthLayer::activated(const AgentStore& agents, std::size_t i) { record(agents, i).seen = true; }
@@ -158,9 +159,10 @@ void HealthLayer::beginStep(AgentStore& agents, const PointGrid& grid, double ti
     nextPanic_.resize(n);
     const std::ptrdiff_t count = static_cast<std::ptrdiff_t>(n);
     // Contagion can only raise an agent towards a more panicked neighbour: while nobody panics
-    // (the usual case) the neighbour search per agent is skipped.
-    double maxPanic = 0;
-    for (std::size_t i = 0; i < n; ++i) maxPanic = std::max(maxPanic, record(agents, i).panic);
+    // (the usual case) the neighbour search per agent is skipped. maxPanic_ is the largest level
+    // of the previous step; agents that left since can only make it too high, which costs a
+    // search but changes no result (a neighbour that raises p also passes the true maximum's test).
+    const double maxPanic = maxPanic_;
     // Panic: each agent reads the frozen levels of the previous step, writes only its own.
 #pragma omp parallel for schedule(static) if (count >= kParallelMin)
     for (std::ptrdiff_t ii = 0; ii < count; ++ii) {
@@ -189,9 +191,13 @@ void HealthLayer::beginStep(AgentStore& agents, const PointGrid& grid, double ti
             if ((agents.pos[i] - ev.position).squaredNorm() <= ev.radius * ev.radius)
                 nextPanic_[i] = std::max(nextPanic_[i], std::clamp(ev.strength, 0.0, 1.0));
     }
-    for (std::size_t i = 0; i < n; ++i) {
+    double newMax = 0;
+#pragma omp parallel for schedule(static) reduction(max : newMax) if (count >= kParallelMin)
+    for (std::ptrdiff_t ii = 0; ii < count; ++ii) {
+        const std::size_t i = static_cast<std::size_t>(ii);
         HealthRecord& r = record(agents, i);
         r.panic = nextPanic_[i];
+        newMax = std::max(newMax, r.panic);
         r.peakPanic = std::max(r.peakPanic, r.panic);
         const HealthParams& hp = params_[static_cast<std::size_t>(agents.policy[i])];
         double v = agents.basePrefSpeed[i];
@@ -204,6 +210,7 @@ void HealthLayer::beginStep(AgentStore& agents, const PointGrid& grid, double ti
         agents.prefSpeed[i] = v;
         agents.maxSpeed[i] = vmax;
     }
+    maxPanic_ = newMax;
 }
 
 void HealthLayer::steerPreferred(AgentStore& agents, const PointGrid& grid, double time, std::uint64_t seed) const {

@@ -139,6 +139,7 @@ private:
     std::vector<PanicEventSpec> events_;
     std::vector<unsigned char> eventFired_;
     std::vector<double> nextPanic_;          ///< per AgentStore index (double buffer)
+    double maxPanic_ = 0;                    ///< largest panic level after the last beginStep
     std::vector<unsigned char> above_;       ///< per AgentStore index: above the crush threshold this step
     CrushSummary crush_;
 };
