@@ -57,4 +57,11 @@ double RVO::cost(const Vec2& v, const AgentQuery& q, const StepContext& ctx) con
     return collision + (q.prefVelocity - v).norm();
 }
 
+double RVO::costLowerBound(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const {
+    (void)ctx;
+    const double speed = v.norm();
+    if (speed > q.maxSpeed) return kOverSpeedCost + (speed - q.maxSpeed);
+    return (q.prefVelocity - v).norm();
+}
+
 }  // namespace ch

@@ -33,6 +33,8 @@ class RVO : public Component {
 public:
     explicit RVO(const ParamSet& params);
     static ComponentInfo Info();
+    /// |v_pref − v'| for an admissible speed (the collision term is ≥ 0), the cost itself above max_speed.
+    double costLowerBound(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const override;
     double cost(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const override;
 
     /// The time to the first collision tc(v') of the paper (s; kInf if none ahead).

@@ -47,22 +47,6 @@ double timeToCollisionPoint(const Vec2& p, const Vec2& v, double r, const Vec2& 
     return timeToCollision(p, v, r, q, Vec2(0, 0), 0.0);
 }
 
-double timeToCollision(const Vec2& p1, const Vec2& v1, double r1, const Vec2& p2, const Vec2& v2, double r2) {
-    // Solve |dp + dv t| = r for the smallest t ≥ 0.
-    const Vec2 dp = p1 - p2;
-    const Vec2 dv = v1 - v2;
-    const double r = r1 + r2;
-    const double c = dp.squaredNorm() - r * r;
-    if (c <= 0) return 0.0;
-    const double a = dv.squaredNorm();
-    const double b = dp.dot(dv);  // half of the usual b
-    if (a <= 0 || b >= 0) return kInf;  // not approaching
-    const double disc = b * b - a * c;
-    if (disc < 0) return kInf;
-    const double t = (-b - std::sqrt(disc)) / a;
-    return t >= 0 ? t : kInf;
-}
-
 double timeToCollisionSegment(const Vec2& p, const Vec2& v, double r, const Vec2& a, const Vec2& b) {
     if (distanceToSegmentSquared(p, a, b) <= r * r) return 0.0;
     // The earliest contact is with an endpoint or with the segment's interior.

@@ -59,7 +59,16 @@ Vec2 PolicyStep::bestVelocitySampling(const AgentQuery& q, const StepContext& ct
     const double halfAngle = s.angle / 360.0 * kPi;
     Vec2 best = base;
     double bestCost = std::numeric_limits<double>::infinity();
+    // Skip candidates that cannot win: every term's lower bound, weighted by a non-negative coeff
+    // and summed in totalCost()'s order, is ≤ the cost (rounding is monotone).
+    bool bounded = true;
+    for (const Entry& e : components_) bounded = bounded && e.coeff >= 0;
     auto consider = [&](const Vec2& v) {
+        if (bounded && bestCost < std::numeric_limits<double>::infinity()) {
+            double bound = 0;
+            for (const Entry& e : components_) bound += e.coeff * e.component->costLowerBound(v, q, ctx);
+            if (bound >= bestCost) return;
+        }
         const double c = totalCost(v, q, ctx);
         if (c < bestCost) {  // strict: the first of equal candidates wins (deterministic)
             bestCost = c;

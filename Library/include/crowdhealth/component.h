@@ -107,6 +107,14 @@ public:
 
     /// Cost of candidate velocity v (m/s) for the query agent; lower is better.
     virtual double cost(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const = 0;
+    /// A value cost(v, q, ctx) is never below, computed in floating point so that it really is
+    /// (default −∞: no bound). Sampling skips a candidate whose bound already reaches the best
+    /// cost so far, which changes no result (the first strictly better candidate still wins) and
+    /// spares the expensive part of models like RVO.
+    virtual double costLowerBound(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const {
+        (void)v; (void)q; (void)ctx;
+        return -kInf;
+    }
     /// Gradient of cost with respect to v. Default: central differences with δ = 0.1 m/s (UMANS).
     virtual Vec2 gradient(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const;
     /// The velocity of minimum cost in closed form, where the model has one.
