@@ -435,7 +435,7 @@ std::string dataFile(const RenderOptions& o, const std::vector<Frame>& frames, d
         }
         for (const DrawAgent& a : frames[k].agents) {
             s += std::to_string(k) + " " + num(frames[k].time) + " " + std::to_string(a.id) + " " + num(a.x, 8) + " " +
-                 num(a.y, 8) + " " + num(a.radius) + " " + num(a.value) + " " +
+                 num(a.y, 8) + " " + num(a.radius) + " " + num(a.value, 17) + " " +  // exact: rgb follows from it
                  std::to_string(packedRgb(colourOf(o.colouring, a.value, barMax))) + "\n";
         }
     }

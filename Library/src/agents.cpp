@@ -3,6 +3,8 @@
 
 #include "crowdhealth/scenario.h"
 
+#include <type_traits>
+
 namespace ch {
 
 std::size_t AgentStore::add(const AgentSpec& s, int policyIndex, int specPosition) {
@@ -46,6 +48,14 @@ void compact(std::vector<T>& v, const std::vector<unsigned char>& remove) {
 
 void AgentStore::removeMarked(const std::vector<unsigned char>& remove) {
     forEachColumn([&](auto& column) { compact(column, remove); });
+}
+
+void AgentStore::permute(const std::vector<int>& order) {
+    forEachColumn([&](auto& column) {
+        std::remove_reference_t<decltype(column)> out(order.size());
+        for (std::size_t k = 0; k < order.size(); ++k) out[k] = column[static_cast<std::size_t>(order[k])];
+        column.swap(out);
+    });
 }
 
 void AgentStore::reserve(std::size_t n) {

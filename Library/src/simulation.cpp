@@ -163,6 +163,7 @@ void Simulation::stepFine() {
         // One search per step: the grid, then every agent's neighbour list within its policy's
         // range, which SPH density, contact and the per-agent calls all read.
         grid_.build(agents_.pos, maxRange_, world_.periodic(), spec_.world.width, spec_.world.height);
+        if (reorderInterval_ > 0 && fineSteps_ % static_cast<std::uint64_t>(reorderInterval_) == 0) reorderAgents();
         lists_.build(agents_.pos, grid_, world_, agents_.policy, policyRange_);
     });
     timed(Phase::Preferred, [&] {
@@ -369,12 +370,35 @@ void Simulation::integrate() {
     }
 }
 
+void Simulation::reorderAgents() {
+    // Cell order keeps neighbours close in memory: the per-pair reads of a step (positions,
+    // masses, densities of neighbours) then hit cache lines already loaded. Agents that join
+    // later are appended; the next re-ordering places them.
+    const std::vector<int>& order = grid_.order();
+    const std::size_t n = agents_.size();
+    if (order.size() != n) return;
+    bool sorted = true;
+    for (std::size_t k = 0; k < n && sorted; ++k) sorted = order[k] == static_cast<int>(k);
+    if (sorted) return;
+    const std::vector<int> previous(order.begin(), order.end());
+    agents_.permute(previous);
+    std::vector<Vec2> held(n, Vec2(0, 0));
+    for (std::size_t k = 0; k < n && k < heldAccel_.size(); ++k) {
+        const std::size_t from = static_cast<std::size_t>(previous[k]);
+        if (from < heldAccel_.size()) held[k] = heldAccel_[from];
+    }
+    heldAccel_.swap(held);
+    remapComponents(previous);
+    grid_.build(agents_.pos, maxRange_, world_.periodic(), spec_.world.width, spec_.world.height);
+}
+
 void Simulation::removeFinished() {
     const std::size_t n = agents_.size();
     std::vector<unsigned char>& remove = remove_;
     remove.assign(n, 0);
     bool any = false;
     const double t = time();
+    const std::size_t firstNew = evacuations_.size();
     for (std::size_t i = 0; i < n; ++i) {
         if (agents_.removeAtGoal[i] && agents_.hasGoal[i] && agents_.atGoal(i)) {
             remove[i] = 1;
@@ -387,6 +411,9 @@ void Simulation::removeFinished() {
             any = true;
         }
     }
+    // Agents leaving at the same step are listed by id, whatever their order in the store.
+    std::sort(evacuations_.begin() + static_cast<std::ptrdiff_t>(firstNew), evacuations_.end(),
+              [](const Evacuation& a, const Evacuation& b) { return a.id < b.id; });
     if (any) {
         agents_.removeMarked(remove);
         // Keep the held coarse accelerations aligned with the surviving agents.

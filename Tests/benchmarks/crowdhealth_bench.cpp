@@ -289,8 +289,16 @@ Result runSimCase(const Case& c) {
     std::snprintf(r.scene, sizeof r.scene, "%s", c.kind.c_str());
     r.n = static_cast<double>(c.n);
     r.threads = c.threads;
-    // The spec is built as a temporary and moved into the Simulation: one copy of a million agent specs.
-    auto sim = std::make_unique<Simulation>(c.kind == "dense-sph" ? denseSph(c.n) : socialForces(c.n));
+    const bool dense = c.kind.rfind("dense-sph", 0) == 0;
+    ScenarioSpec spec = dense ? denseSph(c.n) : socialForces(c.n);
+    if (c.kind.find("shuffled") != std::string::npos) {
+        // Agents listed in random order (as after much mixing): neighbours far apart in memory.
+        std::mt19937_64 rng(7);
+        std::shuffle(spec.agents.begin(), spec.agents.end(), rng);
+    }
+    // The spec is moved into the Simulation: one copy of a million agent specs.
+    auto sim = std::make_unique<Simulation>(std::move(spec));
+    if (c.kind.find("unordered") != std::string::npos) sim->setReorderInterval(0);
     sim->setThreads(c.threads);
     for (int k = 0; k < c.warmup; ++k) sim->stepCoarse();
     resetPhases(*sim);
@@ -314,7 +322,7 @@ Result runSimCase(const Case& c) {
     r.hash = stateHash(sim->agents());
     r.hwmMiB = statusKiB("VmHWM") / 1024.0;
     r.rssMiB = statusKiB("VmRSS") / 1024.0;
-    if (c.kind == "dense-sph") {
+    if (dense) {
         const auto [limit, pairs] = kernelLimit(sim->agents().pos, sim->agents().mass, c.threads, 5);
         r.limitMs = limit;
         r.pairsPerAgent = pairs / std::max<double>(1.0, static_cast<double>(sim->agents().size()));
@@ -491,7 +499,7 @@ void usage() {
                  "  --large         also the 1M-agent dense SPH crowd\n"
                  "  --threads LIST  thread counts, comma separated (default 1,2)\n"
                  "  --steps N       timed steps per case (default: by size)\n"
-                 "  --only TEXT     run only cases whose name contains TEXT (dense, social, neigh, output)\n"
+                 "  --only TEXT     run only cases whose name contains TEXT (dense, order, social, neigh, output)\n"
                  "  --csv FILE      also write every row as CSV\n"
                  "  --no-fork       run cases in this process (peak memory then accumulates)\n";
 }
@@ -574,6 +582,17 @@ int main(int argc, char** argv) {
         for (std::size_t n : sizes)
             for (int t : threads) {
                 Case c{"dense-sph", n, t, 0, 0};
+                stepsFor(n, c.warmup, c.steps);
+                report(inChild([&] { return runSimCase(c); }, fork));
+            }
+    if (wanted("order"))
+        // Agent order: the dense crowd in lattice order without re-ordering ("dense-sph-unordered"),
+        // and listed in random order, re-ordered in grid order every Simulation::kReorderInterval
+        // steps (the default) or never ("-unordered").
+        for (std::size_t n : sizes)
+            for (const char* kind : {"dense-sph-unordered", "dense-sph-shuffled", "dense-sph-shuffled-unordered"}) {
+                if (n < 100000) continue;
+                Case c{kind, n, 1, 0, 0};
                 stepsFor(n, c.warmup, c.steps);
                 report(inChild([&] { return runSimCase(c); }, fork));
             }

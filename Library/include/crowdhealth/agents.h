@@ -48,6 +48,8 @@ struct AgentStore {
     void removeMarked(const std::vector<unsigned char>& remove);
     /// True when agent i is within its goal radius of its goal.
     bool atGoal(std::size_t i) const;
+    /// Re-orders every column: agent k of the result is agent order[k] of now (a permutation).
+    void permute(const std::vector<int>& order);
     /// Room for n agents in every column (one allocation each instead of repeated doubling).
     void reserve(std::size_t n);
 

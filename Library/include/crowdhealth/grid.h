@@ -31,6 +31,9 @@ public:
     /// Collects the indices within radius (for tests and simple callers).
     std::vector<int> within(const Vec2& p, double radius) const;
 
+    /// The point indices grouped by cell, cells row by row (y outer), ascending within a cell.
+    const std::vector<int>& order() const { return sorted_; }
+
     /// Cell width (x) actually used (≥ the requested size; larger for far-flung points).
     double cellSize() const { return cw_; }
 

@@ -59,6 +59,12 @@ public:
 
     /// OpenMP threads for the parallel phases (results do not depend on it).
     void setThreads(int n);
+    /// Every `fineSteps` fine steps (0: never) the agents are re-ordered in grid-cell order so that
+    /// neighbours sit close together in memory (default kReorderInterval). Results stay
+    /// deterministic and thread-count independent; sums over neighbours run in another order, so
+    /// they differ in the last bits from an unordered run.
+    void setReorderInterval(int fineSteps) { reorderInterval_ = std::max(0, fineSteps); }
+    static constexpr int kReorderInterval = 50;
 
     /// Advances one coarse step (delta_time): fineStepsPerCoarse() fine steps.
     void stepCoarse();
@@ -128,6 +134,8 @@ private:
     /// Agent i's state and its neighbour lists of this step into q.
     void gatherQuery(std::size_t i, AgentQuery& q) const;
     void removeFinished();
+    /// Re-orders the agents in the order of grid_ (cells row by row) and rebuilds grid_.
+    void reorderAgents();
     /// Tells every component how agent indices moved (see Component::remapAgents).
     void remapComponents(const std::vector<int>& previous);
     Vec2 umansContactAcceleration(const AgentQuery& q, double scale) const;
@@ -146,6 +154,7 @@ private:
     std::size_t nextPending_ = 0;
     std::vector<Evacuation> evacuations_;
     std::size_t leftWorld_ = 0;
+    int reorderInterval_ = kReorderInterval;
     double maxRange_ = 1.0;                ///< grid cell size: the largest neighbourhood radius
     double maxRadius_ = 0;                 ///< largest agent radius (m)
     std::vector<double> policyRange_;      ///< neighbourhood radius per policy (m)
