@@ -7,9 +7,9 @@
 
 namespace ch {
 
-std::size_t AgentStore::add(const AgentSpec& s, int policyIndex, int specPosition) {
+std::size_t AgentStore::add(const AgentSpec& s, int policyIndex, int recordIndex) {
     id.push_back(s.id);
-    specIndex.push_back(specPosition);
+    record.push_back(recordIndex);
     policy.push_back(policyIndex);
     radius.push_back(s.radius);
     prefSpeed.push_back(s.prefSpeed);

@@ -124,6 +124,8 @@ double HealthParams::get(const std::string& name) const {
 
 void HealthLayer::init(const ScenarioSpec& spec) {
     records_.assign(spec.agents.size(), HealthRecord{});
+    recordOfSpec_.resize(spec.agents.size());
+    for (std::size_t k = 0; k < recordOfSpec_.size(); ++k) recordOfSpec_[k] = static_cast<int>(k);
     std::unordered_map<int, std::size_t> policyIndex;
     for (std::size_t p = 0; p < spec.policies.size(); ++p) policyIndex.emplace(spec.policies[p].id, p);
     for (std::size_t k = 0; k < spec.agents.size(); ++k) {
@@ -150,8 +152,29 @@ void HealthLayer::init(const ScenarioSpec& spec) {
 
 void HealthLayer::activated(const AgentStore& agents, std::size_t i) { record(agents, i).seen = true; }
 
+void HealthLayer::follow(AgentStore& agents) {
+    const std::size_t total = records_.size(), n = agents.size();
+    std::vector<int> newOf(total, -1);  // old record index → new
+    std::vector<HealthRecord> moved;
+    moved.reserve(total);
+    for (std::size_t i = 0; i < n; ++i) {
+        const int old = agents.record[i];
+        if (old < 0 || newOf[static_cast<std::size_t>(old)] >= 0) return;  // not one record per agent: leave as is
+        newOf[static_cast<std::size_t>(old)] = static_cast<int>(moved.size());
+        moved.push_back(records_[static_cast<std::size_t>(old)]);
+    }
+    for (std::size_t k = 0; k < total; ++k)
+        if (newOf[k] < 0) {
+            newOf[k] = static_cast<int>(moved.size());
+            moved.push_back(records_[k]);
+        }
+    records_.swap(moved);
+    for (std::size_t i = 0; i < n; ++i) agents.record[i] = static_cast<int>(i);
+    for (int& r : recordOfSpec_) r = newOf[static_cast<std::size_t>(r)];
+}
+
 const HealthRecord& HealthLayer::recordOf(const AgentStore& agents, std::size_t i) const {
-    return records_[static_cast<std::size_t>(agents.specIndex[i])];
+    return records_[static_cast<std::size_t>(agents.record[i])];
 }
 
 void HealthLayer::beginStep(AgentStore& agents, const PointGrid& grid, double time, double dt) {

@@ -87,7 +87,7 @@ void Simulation::activatePending() {
     const std::size_t before = agents_.size();
     while (nextPending_ < pending_.size() && spec_.agents[pending_[nextPending_]].startTime <= now) {
         const std::size_t k = pending_[nextPending_++];
-        const std::size_t i = agents_.add(spec_.agents[k], agentPolicy_[k], static_cast<int>(k));
+        const std::size_t i = agents_.add(spec_.agents[k], agentPolicy_[k], health_.recordFor(k));
         health_.activated(agents_, i);
     }
     if (agents_.size() != before) {
@@ -389,6 +389,7 @@ void Simulation::reorderAgents() {
     }
     heldAccel_.swap(held);
     remapComponents(previous);
+    health_.follow(agents_);
     grid_.build(agents_.pos, maxRange_, world_.periodic(), spec_.world.width, spec_.world.height);
 }
 

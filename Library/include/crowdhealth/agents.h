@@ -15,7 +15,7 @@ struct AgentSpec;
 struct AgentStore {
     // identity and attributes (cold-ish)
     std::vector<AgentId> id;
-    std::vector<int> specIndex;           ///< position in ScenarioSpec::agents (= HealthLayer record); -1: added by hand
+    std::vector<int> record;              ///< index of the agent's HealthLayer record; -1: added by hand
     std::vector<int> policy;              ///< index into Simulation::policies()
     std::vector<double> radius;           ///< m
     std::vector<double> prefSpeed;        ///< m/s, in effect this step (base, raised by panic, lowered by injury)
@@ -42,8 +42,9 @@ struct AgentStore {
     std::size_t size() const { return id.size(); }
     bool empty() const { return id.empty(); }
 
-    /// Appends one agent from its spec (at `specPosition` in ScenarioSpec::agents); returns its index.
-    std::size_t add(const AgentSpec& spec, int policyIndex, int specPosition = -1);
+    /// Appends one agent from its spec; `record` is its HealthLayer record (HealthLayer::recordFor).
+    /// Returns its index.
+    std::size_t add(const AgentSpec& spec, int policyIndex, int record = -1);
     /// Removes every agent i with remove[i] != 0, keeping the order of the others.
     void removeMarked(const std::vector<unsigned char>& remove);
     /// True when agent i is within its goal radius of its goal.
@@ -56,7 +57,7 @@ struct AgentStore {
     /// Calls f(column) for every column above (a new column must be added here too).
     template <class F>
     void forEachColumn(F&& f) {
-        f(id), f(specIndex), f(policy), f(radius), f(prefSpeed), f(maxSpeed), f(basePrefSpeed), f(baseMaxSpeed);
+        f(id), f(record), f(policy), f(radius), f(prefSpeed), f(maxSpeed), f(basePrefSpeed), f(baseMaxSpeed);
         f(maxAcceleration), f(mass), f(goalRadius), f(removeAtGoal), f(hasGoal), f(goal);
         f(pos), f(vel), f(prefVel), f(viewDir), f(density), f(contactAccel);
     }

@@ -113,10 +113,16 @@ public:
     void markExit(const AgentStore& agents, std::size_t i, double time);
     /// Active agent i has just entered the world.
     void activated(const AgentStore& agents, std::size_t i);
+    /// The record of the agent at `specPosition` in ScenarioSpec::agents (for AgentStore::add).
+    int recordFor(std::size_t specPosition) const { return recordOfSpec_[specPosition]; }
+    /// Moves the records so that active agent i's is records()[i] (the others follow, in their
+    /// order) and updates AgentStore::record: the per-step loops then read records in order.
+    /// The simulation calls it after re-ordering the agents.
+    void follow(AgentStore& agents);
 
     const std::vector<HealthRecord>& records() const { return records_; }
     /// Record of active agent i (AgentStore index): records are one per spec agent, found through
-    /// AgentStore::specIndex, so agents keep theirs whatever the removals.
+    /// AgentStore::record, so agents keep theirs whatever the removals and re-orderings.
     const HealthRecord& recordOf(const AgentStore& agents, std::size_t i) const;
     HealthParams& params(std::size_t policyIndex) { return params_[policyIndex]; }
     const HealthParams& params(std::size_t policyIndex) const { return params_[policyIndex]; }
@@ -129,11 +135,12 @@ public:
 
 private:
     HealthRecord& record(const AgentStore& agents, std::size_t i) {
-        return records_[static_cast<std::size_t>(agents.specIndex[i])];
+        return records_[static_cast<std::size_t>(agents.record[i])];
     }
     const HealthRecord& record(const AgentStore& agents, std::size_t i) const { return recordOf(agents, i); }
 
-    std::vector<HealthRecord> records_;      ///< one per spec agent, in spec order
+    std::vector<HealthRecord> records_;      ///< one per spec agent (spec order until follow())
+    std::vector<int> recordOfSpec_;          ///< spec position → index in records_
     std::vector<HealthParams> params_;       ///< per policy index
     std::vector<unsigned char> hasElement_;  ///< per policy index
     std::vector<PanicEventSpec> events_;
