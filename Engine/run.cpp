@@ -11,6 +11,7 @@
 #include <crowdhealth/simulation.h>
 
 #include <algorithm>
+#include <cstdlib>
 #include <filesystem>
 #include <iostream>
 #include <memory>
@@ -47,6 +48,21 @@ int checkScenario(const Options& o) {
     return kExitOk;
 }
 
+/// OpenMP threads that wait for each other spin for a while (libgomp's default); on a machine
+/// whose cores are busy with other jobs, a spinning thread burns the time slice its partner needs
+/// and a run can become many times slower than on one thread. libgomp reads its settings before
+/// main(), so the program cannot change them itself: it says what to do instead.
+static void busyMachineNote(std::ostream& err, int threads, std::size_t agents) {
+    if (threads < 2 || static_cast<std::ptrdiff_t>(agents) < ch::kParallelMinAgents) return;
+    if (std::getenv("OMP_WAIT_POLICY") != nullptr || std::getenv("GOMP_SPINCOUNT") != nullptr) return;
+    double load[1] = {0};
+    const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+    if (getloadavg(load, 1) != 1 || load[0] < cores - 0.5) return;
+    err << "crowdhealth: note: the machine is busy (load " << ch::formatNumber(load[0], 2) << " on " << cores
+        << " cores); " << threads << " threads waiting for each other may run slower than one. If so, use -t 1 or "
+        << "set OMP_WAIT_POLICY=passive (results are the same)\n";
+}
+
 int runScenario(const Options& o) {
     if (o.plot && !plotAvailable("--plot")) return kExitRuntime;  // say so before a long run, not after
     if (o.replications) return runReplications(o);
@@ -62,6 +78,7 @@ int runScenario(const Options& o) {
     }
 
     const int threads = o.threads > 0 ? o.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+    if (!o.quiet) busyMachineNote(std::cerr, threads, sim->spec().agents.size());
     ProgressBar progress(std::cerr, !o.quiet && ProgressBar::stderrIsTerminal(),
                          plan->useSafetyCap ? -1.0 : plan->info.endTime);
     RunHooks hooks;

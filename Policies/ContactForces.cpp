@@ -128,7 +128,7 @@ void ContactForces::prepare(const StepContext& ctx) {
     for (double r : A.radius) maxRadius = std::max(maxRadius, r);
     const bool prototype = prototypeWalls();
 
-#pragma omp parallel
+#pragma omp parallel if (static_cast<std::ptrdiff_t>(n) >= kParallelMinAgents)
     {
         std::vector<int> near;
 #pragma omp for schedule(static)

@@ -309,7 +309,7 @@ void Simulation::setPreferredVelocities() {
 
 void Simulation::evaluateAgents(bool coarseBoundary) {
     const std::size_t n = agents_.size();
-#pragma omp parallel
+#pragma omp parallel if (static_cast<std::ptrdiff_t>(n) >= kParallelMinAgents)
     {
         AgentQuery q;  // per thread, on its own stack (no shared cache lines); its spans allocate nothing
 #pragma omp for schedule(static)
@@ -439,7 +439,7 @@ std::vector<double> measureDensity(const std::vector<Vec2>& positions, const std
     grid.build(positions, h, world.periodic(), world.spec().width, world.spec().height);
     const PointGrid& walls = world.particleGrid();
     const bool hasWalls = !world.boundaryParticles().empty();
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (static_cast<std::ptrdiff_t>(n) >= kParallelMinAgents)
     for (std::ptrdiff_t ii = 0; ii < static_cast<std::ptrdiff_t>(n); ++ii) {
         const std::size_t i = static_cast<std::size_t>(ii);
         double rho = 0;  // includes the agent itself (j = i, r = 0)

@@ -16,6 +16,7 @@
 #include "crowdhealth/agents.h"
 #include "crowdhealth/grid.h"
 #include "crowdhealth/neighbours.h"
+#include "crowdhealth/parallel.h"
 #include "crowdhealth/params.h"
 #include "crowdhealth/rng.h"
 #include "crowdhealth/types.h"
