@@ -21,6 +21,16 @@ ComponentInfo SocialForcesAvoidance::Info() {
         ParamSpec::real("R", "m", 0.2, 1e-6, 100.0, "decay length of the wall potential (eq. 13)"),
         ParamSpec::real("fov", "deg", 100.0, 0.0, 180.0, "half-angle of the field of view (eq. 8)"),
         ParamSpec::real("behind", "-", 0.5, 0.0, 1.0, "weight of interactions outside the field of view (eq. 8)"),
+        ParamSpec::choice("otherVelocity", {"preferred", "relative"}, 0,
+                          "the other's motion in b (eq. 4): preferred = its speed along its preferred direction, "
+                          "v_b dt e_b (Helbing & Molnar 1995); relative = (v_b - v_a) dt (UMANS 1.x)"),
+        ParamSpec::boolean("contactCutoff", true,
+                           "pairs whose bodies overlap exert no social force (contact forces take over); false: "
+                           "the force acts at every distance (UMANS 1.x)"),
+        ParamSpec::choice("walls", {"nearest", "umans"}, 0,
+                          "nearest = one force per obstacle from its nearest point, full weight; umans = one per "
+                          "wall segment whose outer side faces the agent (polygons counter-clockwise, taken as "
+                          "listed), a shared corner once, weighted by fov/behind (UMANS 1.x)"),
     };
     info.create = [](const ParamSet& p) { return std::make_unique<SocialForcesAvoidance>(p); };
     return info;
@@ -35,6 +45,9 @@ SocialForcesAvoidance::SocialForcesAvoidance(const ParamSet& params) {
     bind(params, "R", R_);
     bind(params, "fov", fovDeg_);
     bind(params, "behind", behind_);
+    bind(params, "otherVelocity", otherVelocity_);
+    bind(params, "contactCutoff", contactCutoff_);
+    bind(params, "walls", walls_);
 }
 
 Vec2 SocialForcesAvoidance::pairForce(const Vec2& R, double vb, const Vec2& eb) const {
@@ -57,13 +70,15 @@ Vec2 SocialForcesAvoidance::pairForce(const Vec2& R, double magR, const Vec2& st
 
 void SocialForcesAvoidance::prepare(const StepContext& ctx) {
     // The neighbour's step v_β Δt e_β depends on the neighbour only: computed once per agent here
-    // instead of once per pair (a norm and a normalisation saved in the O(N·k) loop).
+    // instead of once per pair (a norm and a normalisation saved in the O(N·k) loop). With relative
+    // velocities the pair's step (v_β − v_α)Δt is step_[j] − step_[i], step_ = v Δt.
     const AgentStore& A = ctx.agents;
     const std::size_t n = A.size();
+    const bool relative = otherVelocity_ != 0;
     step_.resize(n);
     stepSq_.resize(n);
     for (std::size_t j = 0; j < n; ++j) {
-        step_[j] = A.vel[j].norm() * dt_ * normalisedOrZero(A.prefVel[j]);
+        step_[j] = relative ? Vec2(dt_ * A.vel[j]) : Vec2(A.vel[j].norm() * dt_ * normalisedOrZero(A.prefVel[j]));
         stepSq_[j] = step_[j].squaredNorm();
     }
 }
@@ -81,17 +96,28 @@ Vec2 SocialForcesAvoidance::acceleration(const AgentQuery& q, const StepContext&
     if (heading.squaredNorm() == 0) heading = normalisedOrZero(q.prefVelocity);
     const double cosFov = std::cos(fovDeg_ * kPi / 180.0);
 
+    const bool relative = otherVelocity_ != 0;
+    const bool cutoff = contactCutoff_ != 0;
+    const Vec2 ownStep = relative ? Vec2(step_[static_cast<std::size_t>(q.i)]) : Vec2(0, 0);
+
     Vec2 f(0, 0);
     for (const NeighbourAgent& n : q.agents) {
         if (n.distance > range_) continue;
-        if (n.distance <= q.radius + A.radius[n.index]) continue;  // in contact: contact forces act
+        if (cutoff && n.distance <= q.radius + A.radius[n.index]) continue;  // in contact: contact forces act
         const Vec2 R = -n.offset;  // from the neighbour to us
         const std::size_t j = static_cast<std::size_t>(n.index);
-        const Vec2 fj = pairForce(R, n.distance, step_[j], stepSq_[j]);
+        Vec2 fj;
+        if (relative) {
+            const Vec2 s = step_[j] - ownStep;
+            fj = pairForce(R, n.distance, s, s.squaredNorm());
+        } else {
+            fj = pairForce(R, n.distance, step_[j], stepSq_[j]);
+        }
         // Eq. 8: full weight when the neighbour is within the field of view.
         const bool inView = heading.squaredNorm() == 0 || heading.dot(n.offset / n.distance) >= cosFov;
         f += (inView ? 1.0 : behind_) * fj;
     }
+    if (walls_ != 0) return (f + wallsUmans(q, ctx, heading, cosFov)) / q.mass;
     // Walls: one force per obstacle, from its nearest point (Helbing & Molnár's "nearest point of
     // the border"). Summing over segments would count a convex corner twice — its two edges share
     // the nearest point — and push agents back from door jambs with double strength. The query's
@@ -113,6 +139,36 @@ Vec2 SocialForcesAvoidance::acceleration(const AgentQuery& q, const StepContext&
         if (std::sqrt(best) <= range_) f += wallForce(nearest);
     }
     return f / q.mass;
+}
+
+Vec2 SocialForcesAvoidance::wallsUmans(const AgentQuery& q, const StepContext& ctx, const Vec2& heading,
+                                       double cosFov) const {
+    // UMANS 1.x: every obstacle edge in range counts, except (1) an edge the agent lies behind
+    // (inside the obstacle, or the far face of a thick wall) and (2) an edge whose nearest point is
+    // its end corner: walking a polygon counter-clockwise, the next edge starts at that corner, so
+    // a convex corner pushes once. Each force is weighted like a pedestrian at the nearest point
+    // (full inside the field of view, `behind` outside). As in UMANS the edges are taken as listed
+    // and "behind" means left of a→b, which is right for counter-clockwise polygons (UMANS'
+    // convention, its example files, our <Box>); a clockwise polygon keeps its far faces instead.
+    const auto& segments = ctx.world.segments();
+    Vec2 f(0, 0);
+    for (const int k : q.segments) {
+        const Segment& seg = segments[static_cast<std::size_t>(k)];
+        const Vec2& a = seg.a;
+        const Vec2& b = seg.b;
+        const Vec2 ab = b - a;
+        const Vec2 ap = q.position - a;
+        if (ab.x() * ap.y() - ab.y() * ap.x() > 0) continue;  // left of a→b: the inner side
+        const double len2 = ab.squaredNorm();
+        const double t = len2 > 0 ? ap.dot(ab) / len2 : 0.0;
+        if (t >= 1.0) continue;  // nearest point is its end corner: the next edge takes it
+        const Vec2 diff = t <= 0.0 ? ap : Vec2(ap - t * ab);
+        if (diff.squaredNorm() > range_ * range_) continue;
+        const double d = diff.norm();
+        const bool inView = heading.squaredNorm() == 0 || d < 1e-9 || heading.dot(-diff / d) >= cosFov;
+        f += (inView ? 1.0 : behind_) * wallForce(diff);
+    }
+    return f;
 }
 
 }  // namespace ch

@@ -13,10 +13,15 @@ namespace ch {
 ///  * pedestrians: V(b) = V0·exp(−b/σ) with the elliptic b(R) of eq. 4,
 ///    2b = sqrt((|R| + |R − v_β Δt e_β|)² − (v_β Δt)²); f = −∇_R V(b), the exact gradient;
 ///  * walls: U(R) = U0·exp(−|R|/R_wall), f = −∇U along the normal from the nearest point of each
-///    obstacle (one force per obstacle; UMANS sums over edges, which doubles it at corners);
+///    obstacle (one force per obstacle), or with `walls="umans"` as UMANS 1.x: from every wall
+///    segment whose outer side faces the agent, a shared corner once, weighted by the field of view;
 ///  * weight 1 inside the field of view (±100° around the walking direction), 0.5 behind (eq. 8);
-///  * agents already in contact exert no social force (contact forces take over, as UMANS).
-/// The result is divided by the agent's mass factor.
+///  * agents already in contact exert no social force (contact forces take over, as UMANS' first
+///    release), unless `contactCutoff="false"` (UMANS 1.x: the force acts at every distance);
+///  * the other's motion in b(R) is v_β Δt e_β (1995, `otherVelocity="preferred"`) or the
+///    relative velocity (v_β − v_α)Δt (UMANS 1.x, `otherVelocity="relative"`).
+/// The result is divided by the agent's mass factor. The three switches (defaults: this model as
+/// first written here) and what UMANS does are in docs/policies.md.
 class SocialForcesAvoidance : public ForceComponent {
 public:
     explicit SocialForcesAvoidance(const ParamSet& params);
@@ -31,10 +36,16 @@ public:
     Vec2 wallForce(const Vec2& diff) const;
 
 private:
+    /// Walls as UMANS 1.x: every segment in range whose outer side (the right of a→b: UMANS assumes
+    /// counter-clockwise polygons and so do we, taking them as listed) faces the agent, skipping a
+    /// segment whose nearest point is its end b, so a shared corner acts once; each weighted by the
+    /// field of view like a pedestrian.
+    Vec2 wallsUmans(const AgentQuery& q, const StepContext& ctx, const Vec2& heading, double cosFov) const;
     /// pairForce with the neighbour's step s = v_β Δt e_β, |s|² and |R| already known (the hot loop).
     Vec2 pairForce(const Vec2& R, double magR, const Vec2& step, double stepSq) const;
 
-    std::vector<Vec2> step_;      ///< per agent, set in prepare(): v Δt e (e: preferred direction)
+    std::vector<Vec2> step_;      ///< per agent, set in prepare(): v Δt e (e: preferred direction);
+                                  ///< with relative velocities: v Δt (the pair's step is step_[j] − step_[i])
     std::vector<double> stepSq_;  ///< |step_|²
     double dt_ = 2.0;       ///< s, the step Δt in b(R): how far ahead the other's motion counts
     double V0_ = 2.1;       ///< m²/s², strength of the pedestrian potential
@@ -43,6 +54,9 @@ private:
     double R_ = 0.2;        ///< m, decay length of the wall potential
     double fovDeg_ = 100.0; ///< degrees, half-angle of the field of view
     double behind_ = 0.5;   ///< weight of interactions outside the field of view
+    double otherVelocity_ = 0;  ///< choice: 0 preferred (v_β Δt e_β), 1 relative ((v_β − v_α)Δt)
+    double contactCutoff_ = 1;  ///< bool: pairs whose bodies overlap exert no social force
+    double walls_ = 0;          ///< choice: 0 nearest (one per obstacle), 1 umans (per facing segment)
 };
 
 }  // namespace ch

@@ -12,6 +12,10 @@
 #   THREADS       runs at a time (crowdhealth -t; default 2)
 #   PROFILES      space-separated subset of profile names, e.g. "sf-k1000 rvo-sph-rho3"
 #                 (default: all; names are the XML files here without .xml)
+#   ROOM_ORDER    counterclockwise (default: ../room.xml as it is) or clockwise: the same walls
+#                 written as <Obstacle> polygons listed clockwise (OUTDIR/profiles/), to see what
+#                 UMANS' wall rule (SocialForcesAvoidance walls="umans") does with such a file
+#                 (docs/policies.md, "What UMANS' SocialForcesAvoidance computes")
 # A profile whose OUTDIR/<profile>/summary.csv already holds REPLICATIONS runs is not run again
 # (delete the folder to redo it). Needs bash, coreutils and awk; no python.
 set -euo pipefail
@@ -81,6 +85,35 @@ if [ -n "${PROFILES:-}" ]; then
 fi
 
 mkdir -p "$outdir"
+
+# ROOM_ORDER=clockwise: the profiles run from OUTDIR/profiles/, beside a copy of room.xml whose
+# <Box x y width height> walls become <Obstacle> polygons (x,y) (x,y+h) (x+w,y+h) (x+w,y).
+profiles="$here"
+case "${ROOM_ORDER:-counterclockwise}" in
+  counterclockwise) ;;
+  clockwise)
+    profiles="$outdir/profiles"
+    mkdir -p "$profiles"
+    awk '
+      BEGIN { print "<?xml version=\"1.0\" encoding=\"utf-8\"?>"
+              print "<!-- ../room.xml, every wall listed clockwise (written by compare.sh). -->"
+              print "<Obstacles>" }
+      /<Box / { delete v
+                for (i = 1; i <= NF; i++) if (match($i, /^(x|y|width|height)="/)) {
+                  k = substr($i, 1, RLENGTH - 2); val = substr($i, RLENGTH + 1); sub(/".*/, "", val); v[k] = val }
+                if (!("x" in v) || !("y" in v) || !("width" in v) || !("height" in v)) { bad = 1; exit }
+                x = v["x"]; y = v["y"]; X = x + v["width"]; Y = y + v["height"]
+                printf "\t<Obstacle><Point x=\"%s\" y=\"%s\"/><Point x=\"%s\" y=\"%s\"/>", x, y, x, Y
+                printf "<Point x=\"%s\" y=\"%s\"/><Point x=\"%s\" y=\"%s\"/></Obstacle>\n", X, Y, X, y }
+      END { if (bad) exit 1; print "</Obstacles>" }
+    ' "$here/../room.xml" > "$profiles/room-clockwise.xml" ||
+      { echo "compare.sh: error: cannot read the <Box> walls of $here/../room.xml" >&2; exit 2; }
+    for f in "$here"/*.xml; do  # the profiles and agents.xml
+      sed -e 's|file="\.\./room\.xml"|file="room-clockwise.xml"|' "$f" > "$profiles/$(basename "$f")"
+    done
+    ;;
+  *) echo "compare.sh: ROOM_ORDER must be counterclockwise or clockwise, not '$ROOM_ORDER'" >&2; exit 2 ;;
+esac
 # How many finished runs a summary.csv holds (rows before 'mean').
 runs_in() { awk -F, 'NR > 1 && $1 == "mean" { exit } NR > 1 { n++ } END { print n + 0 }' "$1"; }
 
@@ -94,7 +127,7 @@ while IFS='|' read -r name label setting pdens pflow; do
   rm -rf -- "$dir"
   echo "compare.sh: $name ($label, $setting): $reps runs" >&2
   start=$SECONDS
-  "$bin" -i "$here/$name.xml" -o "$dir" --replications "$reps" --seed 1 -t "$threads" -q ||
+  "$bin" -i "$profiles/$name.xml" -o "$dir" --replications "$reps" --seed 1 -t "$threads" -q ||
     echo "compare.sh: warning: $name: crowdhealth exited with status $? (see $dir)" >&2
   echo "compare.sh: $name done in $((SECONDS - start)) s" >&2
 done <<< "$table"
