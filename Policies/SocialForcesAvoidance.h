@@ -42,7 +42,7 @@ private:
     /// field of view like a pedestrian.
     Vec2 wallsUmans(const AgentQuery& q, const StepContext& ctx, const Vec2& heading, double cosFov) const;
     /// pairForce with the neighbour's step s = v_β Δt e_β, |s|² and |R| already known (the hot loop).
-    Vec2 pairForce(const Vec2& R, double magR, const Vec2& step, double stepSq) const;
+    [[gnu::always_inline]] inline Vec2 pairForce(const Vec2& R, double magR, const Vec2& step, double stepSq) const;
 
     std::vector<Vec2> step_;      ///< per agent, set in prepare(): v Δt e (e: preferred direction);
                                   ///< with relative velocities: v Δt (the pair's step is step_[j] − step_[i])
