@@ -296,11 +296,18 @@ std::string evacuationsCsv(const Simulation& sim) {
 
 // ---- trajectories --------------------------------------------------------------------------
 
-/// Fills `order` with the indices of the agents by increasing id. Agents keep their order when
-/// others leave and newcomers are appended, so the store is usually sorted already: checked in
-/// O(n), sorted only when not.
+/// Fills `order` with the indices of the agents by increasing id. Cheap when nothing moved: the
+/// store in id order (agents keep their order when others leave and newcomers are appended), or
+/// `order` still valid from the previous frame (the store is re-ordered only every so many
+/// steps); both checked in O(n). Sorted otherwise.
 static void agentsById(const AgentStore& a, std::vector<std::size_t>& order) {
-    order.resize(a.size());
+    const std::size_t n = a.size();
+    if (order.size() == n && n > 0) {
+        bool valid = order[0] < n;
+        for (std::size_t k = 1; k < n && valid; ++k) valid = order[k] < n && a.id[order[k - 1]] < a.id[order[k]];
+        if (valid) return;  // ids are unique, so strictly increasing ids make it a permutation
+    }
+    order.resize(n);
     std::iota(order.begin(), order.end(), std::size_t{0});
     if (!std::is_sorted(a.id.begin(), a.id.end()))
         std::sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) { return a.id[x] < a.id[y]; });
