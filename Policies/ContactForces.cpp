@@ -136,8 +136,11 @@ void ContactForces::prepare(const StepContext& ctx) {
             const std::size_t i = static_cast<std::size_t>(ii);
             const double D = A.radius[i];
             Vec2 a(0, 0);
-            ctx.forEachNeighbour(i, D + maxRadius, [&](int j, const Vec2& off, double r) {
-                const double overlap = D + A.radius[j] - r;
+            ctx.forEachNeighbour(i, D + maxRadius, [&](int j, const Vec2& off, double d2) {
+                const double reach = D + A.radius[j];
+                if (d2 >= reach * reach) return;  // no overlap: no square root needed
+                const double r = std::sqrt(d2);
+                const double overlap = reach - r;
                 if (overlap > 0 && r > 1e-12) a += agentStiffness_ * overlap * Vec2(-off / r);
             });
             a += prototype ? wallsPrototype(i, ctx, near) : wallsVanToll(i, ctx, near);

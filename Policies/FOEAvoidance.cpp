@@ -85,7 +85,7 @@ double FOEAvoidance::pairCost(const Vec2& v, const Vec2& P, const Vec2& u, doubl
 double FOEAvoidance::cost(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const {
     double sum = 0;
     for (const NeighbourAgent& n : q.agents) {
-        if (n.distance > range_) continue;
+        if (n.distanceSquared() > range_ * range_) continue;
         sum += pairCost(v, n.offset, ctx.agents.vel[n.index], q.radius + ctx.agents.radius[n.index], nullptr);
     }
     return sum;
@@ -94,7 +94,7 @@ double FOEAvoidance::cost(const Vec2& v, const AgentQuery& q, const StepContext&
 Vec2 FOEAvoidance::gradient(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const {
     Vec2 g(0, 0);
     for (const NeighbourAgent& n : q.agents) {
-        if (n.distance > range_) continue;
+        if (n.distanceSquared() > range_ * range_) continue;
         pairCost(v, n.offset, ctx.agents.vel[n.index], q.radius + ctx.agents.radius[n.index], &g);
     }
     return g;

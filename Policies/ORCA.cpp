@@ -280,7 +280,7 @@ void ORCA::forEachHalfPlane(const AgentQuery& q, const StepContext& ctx, F&& f) 
     }
     const AgentStore& A = ctx.agents;
     for (const NeighbourAgent& n : q.agents) {
-        if (n.distance > range_) continue;
+        if (n.distanceSquared() > range_ * range_) continue;
         f(orca::agentHalfPlane(n.offset, q.velocity - A.vel[n.index], q.radius + A.radius[n.index], tau, dt,
                                q.velocity),
           false);

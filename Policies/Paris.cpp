@@ -156,7 +156,7 @@ double Paris::conflictAlong(const Vec2& d, double ps, double s, const AgentQuery
         if (deviation != nullptr && s > iv.lo && s < iv.hi) *deviation += std::min(s - iv.lo, iv.hi - s) / ps;
     };
     for (const NeighbourAgent& n : q.agents) {
-        if (n.distance > range_) continue;
+        if (n.distanceSquared() > range_ * range_) continue;
         const Vec2& u = A.vel[n.index];
         const double rj = A.radius[n.index];
         account(forbiddenSpeeds(d, n.offset, u, q.radius + rj, tMax_),
@@ -184,7 +184,7 @@ double Paris::cost(const Vec2& v, const AgentQuery& q, const StepContext& ctx) c
         // that would walk into the agent within the horizon costs one unit of speed deviation.
         double penalty = 0;
         for (const NeighbourAgent& n : q.agents) {
-            if (n.distance > range_) continue;
+            if (n.distanceSquared() > range_ * range_) continue;
             const double ttc = timeToCollision(Vec2(0, 0), Vec2(0, 0), q.radius, n.offset, A.vel[n.index],
                                                A.radius[n.index]);
             if (ttc <= tMax_) penalty += 1.0;

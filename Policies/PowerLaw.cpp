@@ -135,7 +135,7 @@ Vec2 PowerLaw::acceleration(const AgentQuery& q, const StepContext& ctx) const {
     const AgentStore& A = ctx.agents;
     Vec2 f(0, 0);
     for (const NeighbourAgent& n : q.agents) {
-        if (n.distance > range_) continue;
+        if (n.distanceSquared() > range_ * range_) continue;
         f += pairForce(-n.offset, q.velocity - A.vel[n.index], q.radius + A.radius[n.index]);
     }
     if (walls_ != 0) {

@@ -35,7 +35,7 @@ double RVO::timeToFirstCollision(const Vec2& v, const AgentQuery& q, const StepC
     // Against agents: the reciprocal velocity 2v' − v_A relative to the neighbour's velocity.
     const Vec2 reciprocal = 2.0 * v - q.velocity;
     for (const NeighbourAgent& n : q.agents) {
-        if (n.distance > range_) continue;
+        if (n.distanceSquared() > range_ * range_) continue;
         const double t = timeToCollision(Vec2(0, 0), reciprocal, q.radius, n.offset, A.vel[n.index], A.radius[n.index]);
         if (t > 0) tc = std::min(tc, t);  // 0: overlapping already, left to contact forces
     }

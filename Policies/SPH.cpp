@@ -130,7 +130,7 @@ void SPH::prepare(const StepContext& ctx) {
             const std::size_t i = static_cast<std::size_t>(ii);
             const Vec2& x = A.pos[i];
             double rho = A.mass[i] * K.poly6(0.0);  // the agent itself (r = 0), then the others
-            ctx.forEachNeighbour(i, h, [&](int j, const Vec2& d, double) { rho += A.mass[j] * K.poly6(d.squaredNorm()); });
+            ctx.forEachNeighbour(i, h, [&](int j, const Vec2&, double d2) { rho += A.mass[j] * K.poly6(d2); });
             if (useParticles) {
                 particleGrid.forEachWithin(x, h, [&](int, const Vec2&, double d2) { rho += K.poly6(d2); });
             } else if (analytic) {
@@ -193,17 +193,21 @@ Vec2 SPH::acceleration(const AgentQuery& q, const StepContext& ctx) const {
     const bool pressure = pI > 0;  // absolute pressure: only a compressed agent is pushed
 
     Vec2 a(0, 0);
+    const double h2 = h * h;
     for (const NeighbourAgent& nb : q.agents) {
-        if (nb.distance >= h || nb.distance < 1e-12) continue;
+        const double d2 = nb.distanceSquared();
+        if (d2 >= h2) continue;
+        const double r = std::sqrt(d2);  // = nb.distance()
+        if (r < 1e-12) continue;
         const std::size_t j = static_cast<std::size_t>(nb.index);
         const double rhoJ = density_[j];
         if (!(rhoJ > 0)) continue;
         if (pressure) {
-            const Vec2 away = -nb.offset / nb.distance;  // from j to i
-            a += A.mass[j] * (pI + pressure_[j]) / (2.0 * rhoJ) * K.spikyGradMagnitude(nb.distance) * away;
+            const Vec2 away = -nb.offset / r;  // from j to i
+            a += A.mass[j] * (pI + pressure_[j]) / (2.0 * rhoJ) * K.spikyGradMagnitude(r) * away;
         }
         if (viscosity_ > 0)
-            a += viscosity_ * A.mass[j] / rhoJ * K.viscosityLaplacian(nb.distance) * (A.vel[j] - q.velocity);
+            a += viscosity_ * A.mass[j] / rhoJ * K.viscosityLaplacian(r) * (A.vel[j] - q.velocity);
     }
 
     if (!analyticWalls() && !wallDensity_.empty()) {

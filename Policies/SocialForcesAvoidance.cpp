@@ -104,19 +104,20 @@ Vec2 SocialForcesAvoidance::acceleration(const AgentQuery& q, const StepContext&
 
     Vec2 f(0, 0);
     for (const NeighbourAgent& n : q.agents) {
-        if (n.distance > range_) continue;
-        if (cutoff && n.distance <= q.radius + A.radius[n.index]) continue;  // in contact: contact forces act
+        const double distance = n.distance();
+        if (distance > range_) continue;
+        if (cutoff && distance <= q.radius + A.radius[n.index]) continue;  // in contact: contact forces act
         const Vec2 R = -n.offset;  // from the neighbour to us
         const std::size_t j = static_cast<std::size_t>(n.index);
         Vec2 fj;
         if (relative) {
             const Vec2 s = step_[j] - ownStep;
-            fj = pairForce(R, n.distance, s, s.squaredNorm());
+            fj = pairForce(R, distance, s, s.squaredNorm());
         } else {
-            fj = pairForce(R, n.distance, step_[j], stepSq_[j]);
+            fj = pairForce(R, distance, step_[j], stepSq_[j]);
         }
         // Eq. 8: full weight when the neighbour is within the field of view.
-        const bool inView = heading.squaredNorm() == 0 || heading.dot(n.offset) >= cosFov * n.distance;
+        const bool inView = heading.squaredNorm() == 0 || heading.dot(n.offset) >= cosFov * distance;
         f += (inView ? 1.0 : behind_) * fj;
     }
     if (walls_ != 0) return (f + wallsUmans(q, ctx, heading, cosFov)) / q.mass;

@@ -108,16 +108,17 @@ void TtcaDca::perceive(const AgentQuery& q, const StepContext& ctx, std::vector<
     };
 
     for (const NeighbourAgent& n : q.agents) {
-        if (n.distance > range_) continue;
+        const double d2 = n.distanceSquared();
+        if (d2 > range_ * range_) continue;
         const double R = q.radius + A.radius[n.index];
         const Vec2& u = A.vel[n.index];
-        if (n.distance <= R) {
+        if (d2 <= R * R) {
             // Already overlapping: the camera is inside the grown disc; it sees the centre.
             out.push_back({n.offset, u});
             continue;
         }
         const double bearing = signedAngle(heading, n.offset);
-        const double half = std::asin(std::min(1.0, R / n.distance));
+        const double half = std::asin(std::min(1.0, R / std::sqrt(d2)));
         int k0 = 0, k1 = W - 1;
         const bool wraps = fov > 2 * kPi - 1e-9 && (bearing - half < -kPi || bearing + half > kPi);
         if (!wraps) {

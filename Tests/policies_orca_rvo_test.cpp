@@ -94,7 +94,7 @@ struct Frame {
         for (std::size_t j = 0; j < agents.size(); ++j)
             if (static_cast<int>(j) != i) {
                 const Vec2 d = agents.pos[j] - agents.pos[i];
-                q.agentStore.push_back(NeighbourAgent{d, d.norm(), static_cast<int>(j)});
+                q.agentStore.push_back(NeighbourAgent{d, static_cast<int>(j)});
             }
         for (std::size_t s = 0; s < world.segments().size(); ++s) q.segmentStore.push_back(static_cast<int>(s));
         q.bind();

@@ -128,7 +128,7 @@ struct Scene {
         q.agentStore.clear();
         for (std::size_t j = 1; j < agents.size(); ++j) {
             const Vec2 off = agents.pos[j] - agents.pos[0];
-            if (off.norm() <= range) q.agentStore.push_back(NeighbourAgent{off, off.norm(), static_cast<int>(j)});
+            if (off.norm() <= range) q.agentStore.push_back(NeighbourAgent{off, static_cast<int>(j)});
         }
         world.segmentsNear(q.position, range, q.segmentStore);
         q.bind();

@@ -43,7 +43,7 @@ struct Frozen {
         q.radius = agents.radius[i];
         q.mass = agents.mass[i];
         grid.forEachWithin(q.position, range, [&](int j, const Vec2& d, double d2) {
-            if (j != q.i) q.agentStore.push_back(NeighbourAgent{d, std::sqrt(d2), j});
+            if (j != q.i) q.agentStore.push_back(NeighbourAgent{d, j});
         });
         world.segmentsNear(q.position, range, q.segmentStore);
         q.bind();

@@ -26,10 +26,11 @@ double timeToFirstCollision(const Vec2& v, const AgentQuery& q, const StepContex
     const AgentStore& A = ctx.agents;
     double first = kInf;
     for (const NeighbourAgent& n : q.agents) {
-        if (n.distance > range) continue;
+        const double d2 = n.distanceSquared();
+        if (d2 > range * range) continue;
         const Vec2& vj = A.vel[n.index];
         const double rj = A.radius[n.index];
-        if (n.distance <= q.radius + rj) {
+        if (d2 <= (q.radius + rj) * (q.radius + rj)) {
             if ((v - vj).dot(n.offset) > 0) return 0.0;
             continue;
         }

@@ -46,8 +46,8 @@ void NeighbourLists::build(const std::vector<Vec2>& positions, const PointGrid& 
             Place at;
             NeighbourAgent* list = out.open(at, grid.candidateCount(positions[i], r));
             std::size_t count = 0;
-            grid.forEachWithin(positions[i], r, [&](int j, const Vec2& d, double d2) {
-                if (j != self) list[count++] = NeighbourAgent{d, std::sqrt(d2), j};
+            grid.forEachWithin(positions[i], r, [&](int j, const Vec2& d, double) {
+                if (j != self) list[count++] = NeighbourAgent{d, j};
             });
             out.close(at, count);
             agentSlice_[i] = slice(t, at, count);

@@ -127,8 +127,11 @@ Vec2 Simulation::umansContactAcceleration(const AgentQuery& q, double scale) con
     // acceleration clamp. `scale` is a stiffness per unit mass (1/s²).
     Vec2 acc(0, 0);
     for (const NeighbourAgent& n : q.agents) {
-        const double overlap = q.radius + agents_.radius[n.index] - n.distance;
-        if (overlap > 0 && n.distance > 1e-12) acc -= n.offset / n.distance * (scale * overlap);
+        const double reach = q.radius + agents_.radius[n.index];
+        if (n.distanceSquared() >= reach * reach) continue;
+        const double d = n.distance();
+        const double overlap = reach - d;
+        if (overlap > 0 && d > 1e-12) acc -= n.offset / d * (scale * overlap);
     }
     for (int s : q.segments) {
         const Segment& seg = world_.segments()[s];

@@ -22,7 +22,6 @@
 #include "crowdhealth/types.h"
 #include "crowdhealth/world.h"
 
-#include <cmath>
 #include <map>
 #include <span>
 #include <optional>
@@ -58,21 +57,23 @@ struct StepContext {
     /// This step's neighbour lists (null: none, e.g. in tests; the helpers below then query the grid).
     const NeighbourLists* lists = nullptr;
 
-    /// Calls f(j, offset, distance) for every other agent j within `radius` of agent i, in the
-    /// grid's visit order. Reads the step's neighbour list when it reaches far enough, else
-    /// queries the grid: the same agents, offsets and distances either way (the same test,
-    /// |offset|² <= radius², decides).
+    /// Calls f(j, offset, distanceSquared) for every other agent j within `radius` of agent i, in
+    /// the grid's visit order. Reads the step's neighbour list when it reaches far enough, else
+    /// queries the grid: the same agents, offsets and squared distances either way (the same
+    /// test, |offset|² <= radius², decides).
     template <class F>
     void forEachNeighbour(std::size_t i, double radius, F&& f) const {
+        const double r2 = radius * radius;
         if (lists != nullptr && i < lists->size() && radius <= lists->radius(i)) {
-            const double r2 = radius * radius;
-            for (const NeighbourAgent& nb : lists->agents(i))
-                if (nb.offset.squaredNorm() <= r2) f(nb.index, nb.offset, nb.distance);
+            for (const NeighbourAgent& nb : lists->agents(i)) {
+                const double d2 = nb.distanceSquared();
+                if (d2 <= r2) f(nb.index, nb.offset, d2);
+            }
             return;
         }
         const int self = static_cast<int>(i);
         grid.forEachWithin(agents.pos[i], radius, [&](int j, const Vec2& d, double d2) {
-            if (j != self) f(j, d, std::sqrt(d2));
+            if (j != self) f(j, d, d2);
         });
     }
 
