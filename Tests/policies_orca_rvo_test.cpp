@@ -61,51 +61,6 @@ PolicySpec umansPolicy(const std::string& model, int id = 0, double contactForce
 /// that walked 20 % slow or detoured would fail.
 double travelTimeBound(double dist) { return 1.1 * dist / 1.3 + 1.0; }
 
-// ---- a hand-built frozen state for unit tests ------------------------------------------------
-
-struct Frame {
-    AgentStore agents;
-    World world;
-    PointGrid grid;
-
-    explicit Frame(const std::vector<ObstacleSpec>& obstacles = {}) : world(WorldSpec{}, obstacles) {}
-
-    int add(Vec2 pos, Vec2 goal, Vec2 vel, double radius = 0.3) {
-        const std::size_t i = agents.add(agent(static_cast<AgentId>(agents.size()), pos, goal, radius), 0);
-        agents.vel[i] = vel;
-        agents.prefVel[i] = normalisedOrZero(goal - pos) * agents.prefSpeed[i];
-        return static_cast<int>(i);
-    }
-    StepContext context(double dt = 0.1) {
-        grid.build(agents.pos, 5.0);
-        return StepContext{agents, world, grid, dt, 0.0, 0, 1, 0.0};
-    }
-    test::OwnedQuery query(int i) const {
-        test::OwnedQuery q;
-        q.i = i;
-        q.position = agents.pos[i];
-        q.velocity = agents.vel[i];
-        q.prefVelocity = agents.prefVel[i];
-        q.radius = agents.radius[i];
-        q.prefSpeed = agents.prefSpeed[i];
-        q.maxSpeed = agents.maxSpeed[i];
-        q.maxAcceleration = agents.maxAcceleration[i];
-        q.mass = agents.mass[i];
-        for (std::size_t j = 0; j < agents.size(); ++j)
-            if (static_cast<int>(j) != i) {
-                const Vec2 d = agents.pos[j] - agents.pos[i];
-                q.agentStore.push_back(NeighbourAgent{d, static_cast<int>(j)});
-            }
-        for (std::size_t s = 0; s < world.segments().size(); ++s) q.segmentStore.push_back(static_cast<int>(s));
-        q.bind();
-        return q;
-    }
-};
-
-std::unique_ptr<Component> make(const std::string& name, const std::map<std::string, double>& values = {}) {
-    const ComponentSpec c = component(name, values);
-    return createComponent(c.name, c.params);
-}
 
 ObstacleSpec box(double xmin, double ymin, double xmax, double ymax) {
     ObstacleSpec o;

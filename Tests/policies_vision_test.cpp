@@ -136,10 +136,7 @@ struct Scene {
     }
 };
 
-std::unique_ptr<Component> make(const std::string& name, const std::map<std::string, double>& values = {}) {
-    const ComponentSpec c = test::component(name, values);
-    return createComponent(c.name, c.params);
-}
+using test::make;
 
 }  // namespace
 

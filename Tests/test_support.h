@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
@@ -50,6 +51,12 @@ inline ComponentSpec component(const std::string& name, const std::map<std::stri
     return c;
 }
 
+/// A component built from the registry with every default of its table and the given overrides.
+inline std::unique_ptr<Component> make(const std::string& name, const std::map<std::string, double>& values = {}) {
+    const ComponentSpec c = component(name, values);
+    return createComponent(c.name, c.params);
+}
+
 /// A policy with one step.
 inline PolicySpec policy(int id, OptimisationMethod method, std::vector<ComponentSpec> components,
                          double relaxationTime = 0.0, SamplingSpec sampling = {},
@@ -79,6 +86,45 @@ inline AgentSpec agent(AgentId id, Vec2 pos, Vec2 goal, double radius = 0.3, dou
     a.policyId = policyId;
     return a;
 }
+
+/// A hand-built frozen state for unit tests of one component call: agents added one by one, a
+/// context over them, and a query for agent i with every other agent and every wall segment as
+/// neighbours. World holds pointers into itself: build a Frame in place, never copy it.
+struct Frame {
+    AgentStore agents;
+    World world;
+    PointGrid grid;
+
+    explicit Frame(const std::vector<ObstacleSpec>& obstacles = {}) : world(WorldSpec{}, obstacles) {}
+
+    int add(Vec2 pos, Vec2 goal, Vec2 vel, double radius = 0.3) {
+        const std::size_t i = agents.add(agent(static_cast<AgentId>(agents.size()), pos, goal, radius), 0);
+        agents.vel[i] = vel;
+        agents.prefVel[i] = normalisedOrZero(goal - pos) * agents.prefSpeed[i];
+        return static_cast<int>(i);
+    }
+    StepContext context(double dt = 0.1, double relaxation = 0.5) {
+        grid.build(agents.pos, 5.0);
+        return StepContext{agents, world, grid, dt, 0.0, 0, 1, relaxation};
+    }
+    OwnedQuery query(int i) const {
+        OwnedQuery q;
+        q.i = i;
+        q.position = agents.pos[i];
+        q.velocity = agents.vel[i];
+        q.prefVelocity = agents.prefVel[i];
+        q.radius = agents.radius[i];
+        q.prefSpeed = agents.prefSpeed[i];
+        q.maxSpeed = agents.maxSpeed[i];
+        q.maxAcceleration = agents.maxAcceleration[i];
+        q.mass = agents.mass[i];
+        for (std::size_t j = 0; j < agents.size(); ++j)
+            if (static_cast<int>(j) != i) q.agentStore.push_back(NeighbourAgent{agents.pos[j] - agents.pos[i], static_cast<int>(j)});
+        for (std::size_t k = 0; k < world.segments().size(); ++k) q.segmentStore.push_back(static_cast<int>(k));
+        q.bind();
+        return q;
+    }
+};
 
 inline ScenarioSpec scenario(std::vector<AgentSpec> agents, std::vector<PolicySpec> policies, double dt = 0.1,
                              double endTime = 60.0) {
