@@ -124,13 +124,14 @@ void ContactForces::prepare(const StepContext& ctx) {
     const AgentStore& A = ctx.agents;
     const std::size_t n = A.size();
     accel_.assign(n, Vec2(0, 0));
-    double maxRadius = 0;  // a max-reduction: the same whatever the threads
-#pragma omp parallel for schedule(static) reduction(max : maxRadius) if (static_cast<std::ptrdiff_t>(n) >= kParallelMinAgents)
-    for (std::ptrdiff_t ii = 0; ii < static_cast<std::ptrdiff_t>(n); ++ii)
-        maxRadius = std::max(maxRadius, A.radius[static_cast<std::size_t>(ii)]);
+    // The search reach D + max D; the scenario's largest radius, known to the simulation, spares a
+    // pass over all agents every step (a larger reach only visits more pairs that do not touch).
+    double maxRadius = ctx.maxRadius;
+    if (!(maxRadius > 0))
+        for (double r : A.radius) maxRadius = std::max(maxRadius, r);
     const bool prototype = prototypeWalls();
 
-#pragma omp parallel if (static_cast<std::ptrdiff_t>(n) >= kParallelMinAgents)
+#pragma omp parallel if (parallelNeighbourLoop(n))
     {
         std::vector<int> near;
 #pragma omp for schedule(static)

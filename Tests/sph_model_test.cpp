@@ -37,12 +37,8 @@ struct Frozen {
     StepContext ctx() const { return StepContext{agents, world, grid, dt, step * dt, step, 1, 0.5}; }
     test::OwnedQuery query(std::size_t i, double range = 2.0) const {
         test::OwnedQuery q;
-        q.i = static_cast<int>(i);
-        q.position = agents.pos[i];
-        q.velocity = agents.vel[i];
-        q.radius = agents.radius[i];
-        q.mass = agents.mass[i];
-        grid.forEachWithin(q.position, range, [&](int j, const Vec2& d, double d2) {
+        setQueryAgent(q, agents, i);
+        grid.forEachWithin(q.position, range, [&](int j, const Vec2& d, double) {
             if (j != q.i) q.agentStore.push_back(NeighbourAgent{d, j});
         });
         world.segmentsNear(q.position, range, q.segmentStore);

@@ -109,15 +109,7 @@ struct Frame {
     }
     OwnedQuery query(int i) const {
         OwnedQuery q;
-        q.i = i;
-        q.position = agents.pos[i];
-        q.velocity = agents.vel[i];
-        q.prefVelocity = agents.prefVel[i];
-        q.radius = agents.radius[i];
-        q.prefSpeed = agents.prefSpeed[i];
-        q.maxSpeed = agents.maxSpeed[i];
-        q.maxAcceleration = agents.maxAcceleration[i];
-        q.mass = agents.mass[i];
+        setQueryAgent(q, agents, static_cast<std::size_t>(i));
         for (std::size_t j = 0; j < agents.size(); ++j)
             if (static_cast<int>(j) != i) q.agentStore.push_back(NeighbourAgent{agents.pos[j] - agents.pos[i], static_cast<int>(j)});
         for (std::size_t k = 0; k < world.segments().size(); ++k) q.segmentStore.push_back(static_cast<int>(k));

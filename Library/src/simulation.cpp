@@ -2,6 +2,7 @@
 #include "crowdhealth/simulation.h"
 
 #include "crowdhealth/kernels.h"
+#include "crowdhealth/parallel.h"
 
 #include <omp.h>
 
@@ -15,9 +16,6 @@
 namespace ch {
 
 namespace {
-// Below this many agents the cheap O(n) phases run on one thread: waking the team would cost more.
-constexpr std::ptrdiff_t kParallelMin = 4096;
-
 int finePerCoarseOf(const ScenarioSpec& s) {
     const double ratio = s.deltaTime / s.fineStep();
     return std::max(1, static_cast<int>(std::lround(ratio)));
@@ -93,12 +91,18 @@ void Simulation::activatePending() {
     if (agents_.size() != before) {
         std::vector<int> previous(agents_.size(), -1);
         for (std::size_t i = 0; i < before; ++i) previous[i] = static_cast<int>(i);
-        heldAccel_.resize(agents_.size(), Vec2(0, 0));
-        remapComponents(previous);
+        followAgents(previous);
     }
 }
 
-void Simulation::remapComponents(const std::vector<int>& previous) {
+void Simulation::followAgents(const std::vector<int>& previous) {
+    // The held coarse accelerations, then every component's per-agent state.
+    std::vector<Vec2> held(previous.size(), Vec2(0, 0));
+    for (std::size_t i = 0; i < previous.size(); ++i) {
+        const int p = previous[i];
+        if (p >= 0 && static_cast<std::size_t>(p) < heldAccel_.size()) held[i] = heldAccel_[static_cast<std::size_t>(p)];
+    }
+    heldAccel_.swap(held);
     for (Policy& p : policies_)
         for (PolicyStep& s : p.steps())
             for (auto& e : s.components()) e.component->remapAgents(previous);
@@ -109,15 +113,7 @@ void Simulation::stepCoarse() {
 }
 
 void Simulation::gatherQuery(std::size_t i, AgentQuery& q) const {
-    q.i = static_cast<int>(i);
-    q.position = agents_.pos[i];
-    q.velocity = agents_.vel[i];
-    q.prefVelocity = agents_.prefVel[i];
-    q.radius = agents_.radius[i];
-    q.prefSpeed = agents_.prefSpeed[i];
-    q.maxSpeed = agents_.maxSpeed[i];
-    q.maxAcceleration = agents_.maxAcceleration[i];
-    q.mass = agents_.mass[i];
+    setQueryAgent(q, agents_, i);
     q.agents = lists_.agents(i);
     q.segments = lists_.segments(i);
 }
@@ -182,7 +178,6 @@ void Simulation::stepFine() {
                 if (s.timing() == StepTiming::Fine || coarseBoundary) s.prepare(contextFor(s));
     });
 
-    heldAccel_.resize(n, Vec2(0, 0));
     fineAccel_.resize(n);
     umansContact_.resize(n);
     stopped_.resize(n);
@@ -295,13 +290,13 @@ std::vector<double> Simulation::scheduleValues() const {
 
 StepContext Simulation::contextFor(const PolicyStep& s) const {
     const double dt = s.timing() == StepTiming::Coarse ? dtCoarse_ : dtFine_;
-    return StepContext{agents_, world_, grid_, dt, time(), fineSteps_, spec_.seed, s.spec().relaxationTime, &lists_};
+    return StepContext{agents_, world_, grid_, dt, time(), fineSteps_, spec_.seed, s.spec().relaxationTime, &lists_, maxRadius_};
 }
 
 void Simulation::setPreferredVelocities() {
     // Part of the frozen state of this step: towards the goal at preferred speed, 0 at the goal.
     const std::ptrdiff_t n = static_cast<std::ptrdiff_t>(agents_.size());
-#pragma omp parallel for schedule(static) if (n >= kParallelMin)
+#pragma omp parallel for schedule(static) if (parallelCheapLoop(static_cast<std::size_t>(n)))
     for (std::ptrdiff_t ii = 0; ii < n; ++ii) {
         const std::size_t i = static_cast<std::size_t>(ii);
         agents_.prefVel[i] = agents_.atGoal(i) ? Vec2(0, 0)
@@ -312,7 +307,7 @@ void Simulation::setPreferredVelocities() {
 
 void Simulation::evaluateAgents(bool coarseBoundary) {
     const std::size_t n = agents_.size();
-#pragma omp parallel if (static_cast<std::ptrdiff_t>(n) >= kParallelMinAgents)
+#pragma omp parallel if (parallelNeighbourLoop(n))
     {
         AgentQuery q;  // per thread, on its own stack (no shared cache lines); its spans allocate nothing
 #pragma omp for schedule(static)
@@ -356,7 +351,7 @@ void Simulation::evaluateAgents(bool coarseBoundary) {
 
 void Simulation::integrate() {
     const std::ptrdiff_t n = static_cast<std::ptrdiff_t>(agents_.size());
-#pragma omp parallel for schedule(static) if (n >= kParallelMin)
+#pragma omp parallel for schedule(static) if (parallelCheapLoop(static_cast<std::size_t>(n)))
     for (std::ptrdiff_t ii = 0; ii < n; ++ii) {
         const std::size_t i = static_cast<std::size_t>(ii);
         Vec2 v(0, 0);
@@ -385,13 +380,7 @@ void Simulation::reorderAgents() {
     if (sorted) return;
     const std::vector<int> previous(order.begin(), order.end());
     agents_.permute(previous);
-    std::vector<Vec2> held(n, Vec2(0, 0));
-    for (std::size_t k = 0; k < n && k < heldAccel_.size(); ++k) {
-        const std::size_t from = static_cast<std::size_t>(previous[k]);
-        if (from < heldAccel_.size()) held[k] = heldAccel_[from];
-    }
-    heldAccel_.swap(held);
-    remapComponents(previous);
+    followAgents(previous);
     health_.follow(agents_);
     grid_.build(agents_.pos, maxRange_, world_.periodic(), spec_.world.width, spec_.world.height);
 }
@@ -420,17 +409,11 @@ void Simulation::removeFinished() {
               [](const Evacuation& a, const Evacuation& b) { return a.id < b.id; });
     if (any) {
         agents_.removeMarked(remove);
-        // Keep the held coarse accelerations aligned with the surviving agents.
-        std::size_t w = 0;
         std::vector<int> previous;
         previous.reserve(n);
         for (std::size_t r = 0; r < n; ++r)
-            if (!remove[r]) {
-                heldAccel_[w++] = heldAccel_[r];
-                previous.push_back(static_cast<int>(r));
-            }
-        heldAccel_.resize(w);
-        remapComponents(previous);
+            if (!remove[r]) previous.push_back(static_cast<int>(r));
+        followAgents(previous);
     }
 }
 
@@ -442,7 +425,7 @@ std::vector<double> measureDensity(const std::vector<Vec2>& positions, const std
     grid.build(positions, h, world.periodic(), world.spec().width, world.spec().height);
     const PointGrid& walls = world.particleGrid();
     const bool hasWalls = !world.boundaryParticles().empty();
-#pragma omp parallel for schedule(static) if (static_cast<std::ptrdiff_t>(n) >= kParallelMinAgents)
+#pragma omp parallel for schedule(static) if (parallelNeighbourLoop(n))
     for (std::ptrdiff_t ii = 0; ii < static_cast<std::ptrdiff_t>(n); ++ii) {
         const std::size_t i = static_cast<std::size_t>(ii);
         double rho = 0;  // includes the agent itself (j = i, r = 0)

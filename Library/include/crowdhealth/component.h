@@ -44,6 +44,19 @@ struct AgentQuery {
     std::span<const int> segments;           ///< indices into World::segments(), ascending
 };
 
+/// Agent i's own state from the store into q (index, kinematics, attributes); not its neighbourhood.
+inline void setQueryAgent(AgentQuery& q, const AgentStore& agents, std::size_t i) {
+    q.i = static_cast<int>(i);
+    q.position = agents.pos[i];
+    q.velocity = agents.vel[i];
+    q.prefVelocity = agents.prefVel[i];
+    q.radius = agents.radius[i];
+    q.prefSpeed = agents.prefSpeed[i];
+    q.maxSpeed = agents.maxSpeed[i];
+    q.maxAcceleration = agents.maxAcceleration[i];
+    q.mass = agents.mass[i];
+}
+
 /// Read-only view of the frozen state handed to every component call.
 struct StepContext {
     const AgentStore& agents;
@@ -56,6 +69,9 @@ struct StepContext {
     double relaxationTime;   ///< the evaluating policy step's RelaxationTime, s
     /// This step's neighbour lists (null: none, e.g. in tests; the helpers below then query the grid).
     const NeighbourLists* lists = nullptr;
+    /// Largest radius of any agent of the scenario (m); 0 when unknown (tests), then components
+    /// that need it take it from `agents`.
+    double maxRadius = 0;
 
     /// Calls f(j, offset, distanceSquared) for every other agent j within `radius` of agent i, in
     /// the grid's visit order. Reads the step's neighbour list when it reaches far enough, else

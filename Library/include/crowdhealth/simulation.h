@@ -136,8 +136,10 @@ private:
     void removeFinished();
     /// Re-orders the agents in the order of grid_ (cells row by row) and rebuilds grid_.
     void reorderAgents();
-    /// Tells every component how agent indices moved (see Component::remapAgents).
-    void remapComponents(const std::vector<int>& previous);
+    /// After agents were added, removed or re-ordered (previous[i] = agent i's former index, -1
+    /// for a newcomer): moves the held coarse accelerations and tells every component
+    /// (Component::remapAgents). The one place per-agent state follows the store.
+    void followAgents(const std::vector<int>& previous);
     Vec2 umansContactAcceleration(const AgentQuery& q, double scale) const;
 
     ScenarioSpec spec_;
