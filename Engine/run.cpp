@@ -53,7 +53,7 @@ int checkScenario(const Options& o) {
 /// and a run can become many times slower than on one thread. libgomp reads its settings before
 /// main(), so the program cannot change them itself: it says what to do instead.
 static void busyMachineNote(std::ostream& err, int threads, std::size_t agents) {
-    if (threads < 2 || static_cast<std::ptrdiff_t>(agents) < ch::kParallelMinAgents) return;
+    if (threads < 2 || !ch::parallelNeighbourLoop(agents)) return;
     if (std::getenv("OMP_WAIT_POLICY") != nullptr || std::getenv("GOMP_SPINCOUNT") != nullptr) return;
     double load[1] = {0};
     const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));

@@ -121,7 +121,7 @@ void SPH::prepare(const StepContext& ctx) {
     const PointGrid& particleGrid = ctx.world.particleGrid();
     const bool useParticles = !analytic && !particles.empty();
 
-#pragma omp parallel if (static_cast<std::ptrdiff_t>(n) >= kParallelMinAgents)
+#pragma omp parallel if (parallelNeighbourLoop(n))
     {
         std::vector<int> near;
         std::vector<wallarea::WallPiece> pieces;
@@ -162,7 +162,7 @@ void SPH::prepare(const StepContext& ctx) {
     wallAverage_.resize(np, 0.0);
     wallKnown_.resize(np, 0);
     const WallPressure rule = wallPressureRule();
-#pragma omp parallel for schedule(static) if (static_cast<std::ptrdiff_t>(np) >= kParallelMinAgents)
+#pragma omp parallel for schedule(static) if (parallelNeighbourLoop(np))
     for (std::ptrdiff_t kk = 0; kk < static_cast<std::ptrdiff_t>(np); ++kk) {
         const std::size_t k = static_cast<std::size_t>(kk);
         const Vec2& x = particles[k];

@@ -2,6 +2,7 @@
 #include "crowdhealth/health.h"
 
 #include "crowdhealth/output.h"
+#include "crowdhealth/parallel.h"
 #include "crowdhealth/rng.h"
 
 #include <algorithm>
@@ -14,7 +15,6 @@ namespace ch {
 namespace {
 /// Below this speed (m/s) an agent's heading is not defined (standing, jitter).
 constexpr double kHeadingSpeed = 0.1;
-constexpr std::ptrdiff_t kParallelMin = 4096;
 
 ParamSpec positive(ParamSpec p) {
     p.minExclusive = true;
@@ -187,7 +187,7 @@ void HealthLayer::beginStep(AgentStore& agents, const PointGrid& grid, double ti
     // search but changes no result (a neighbour that raises p also passes the true maximum's test).
     const double maxPanic = maxPanic_;
     // Panic: each agent reads the frozen levels of the previous step, writes only its own.
-#pragma omp parallel for schedule(static) if (count >= kParallelMin)
+#pragma omp parallel for schedule(static) if (parallelCheapLoop(static_cast<std::size_t>(count)))
     for (std::ptrdiff_t ii = 0; ii < count; ++ii) {
         const std::size_t i = static_cast<std::size_t>(ii);
         const HealthParams& hp = params_[static_cast<std::size_t>(agents.policy[i])];
@@ -215,7 +215,7 @@ void HealthLayer::beginStep(AgentStore& agents, const PointGrid& grid, double ti
                 nextPanic_[i] = std::max(nextPanic_[i], std::clamp(ev.strength, 0.0, 1.0));
     }
     double newMax = 0;
-#pragma omp parallel for schedule(static) reduction(max : newMax) if (count >= kParallelMin)
+#pragma omp parallel for schedule(static) reduction(max : newMax) if (parallelCheapLoop(static_cast<std::size_t>(count)))
     for (std::ptrdiff_t ii = 0; ii < count; ++ii) {
         const std::size_t i = static_cast<std::size_t>(ii);
         HealthRecord& r = record(agents, i);
@@ -241,7 +241,7 @@ void HealthLayer::steerPreferred(AgentStore& agents, const PointGrid& grid, doub
     bool any = false;
     for (const HealthParams& hp : params_) any = any || hp.erratic || hp.herding;
     if (!any) return;
-#pragma omp parallel for schedule(static) if (count >= kParallelMin)
+#pragma omp parallel for schedule(static) if (parallelCheapLoop(static_cast<std::size_t>(count)))
     for (std::ptrdiff_t ii = 0; ii < count; ++ii) {
         const std::size_t i = static_cast<std::size_t>(ii);
         const HealthParams& hp = params_[static_cast<std::size_t>(agents.policy[i])];
@@ -280,7 +280,7 @@ void HealthLayer::endStep(const AgentStore& agents, double time, double dt) {
     const std::ptrdiff_t count = static_cast<std::ptrdiff_t>(n);
     above_.resize(n);
     // Per agent, in parallel: each iteration writes only its own record and flag.
-#pragma omp parallel for schedule(static) if (count >= kParallelMin)
+#pragma omp parallel for schedule(static) if (parallelCheapLoop(static_cast<std::size_t>(count)))
     for (std::ptrdiff_t ii = 0; ii < count; ++ii) {
         const std::size_t i = static_cast<std::size_t>(ii);
         HealthRecord& r = record(agents, i);

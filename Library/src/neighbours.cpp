@@ -30,7 +30,7 @@ void NeighbourLists::build(const std::vector<Vec2>& positions, const PointGrid& 
     group_ = &group;
     rangeOfGroup_ = rangeOfGroup;
 
-#pragma omp parallel num_threads(threads) if (static_cast<std::ptrdiff_t>(n) >= kParallelMinAgents)
+#pragma omp parallel num_threads(threads) if (parallelNeighbourLoop(n))
     {
         const int t = omp_get_thread_num();
         BlockBuffer<NeighbourAgent>& out = agentBuffers_[static_cast<std::size_t>(t)];
