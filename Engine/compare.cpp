@@ -272,19 +272,9 @@ int compareCommand(int argc, char* argv[]) {
         ("quiet,q", "do not print the table")
         ("help,h", "show this help");
     // clang-format on
-    po::options_description all;
-    all.add(visible).add_options()("dir", po::value<std::vector<std::string>>(), "");
-    po::positional_options_description pos;
-    pos.add("dir", -1);
     po::variables_map vm;
-    try {
-        po::store(po::command_line_parser(argc, argv).options(all).positional(pos).run(), vm);
-        po::notify(vm);
-    } catch (const po::error& e) {
-        std::cerr << "crowdhealth compare: error: " << e.what()
-                  << "\nTry 'crowdhealth compare --help' for more information.\n";
-        return kExitInput;
-    }
+    std::vector<std::string> dirs;
+    if (!chcli::parseFolderCommand("compare", visible, argc, argv, vm, dirs)) return kExitInput;
     if (vm.count("help")) {
         std::cout << "Usage: crowdhealth compare DIR... [-o OUTDIR] [--no-plot] [-q]\n\n"
                      "Compares runs or experiments: each DIR is a run folder (holding metrics.csv) or a\n"
@@ -300,7 +290,6 @@ int compareCommand(int argc, char* argv[]) {
                      "or OUTDIR not writable; 2 bad command line or a DIR holds no run.\n";
         return kExitOk;
     }
-    const auto dirs = vm.count("dir") ? vm["dir"].as<std::vector<std::string>>() : std::vector<std::string>{};
     if (dirs.empty()) {
         std::cerr << "crowdhealth compare: error: give one or more run or replications folders\n"
                      "Try 'crowdhealth compare --help' for more information.\n";

@@ -408,21 +408,30 @@ int plotOutputs(const std::filesystem::path& dir, bool quiet) {
     return errors.empty() ? kExitOk : kExitRuntime;
 }
 
-int plotCommand(int argc, char* argv[]) {
-    po::options_description visible("Options");
-    visible.add_options()("quiet,q", "print nothing but errors")("help,h", "show this help");
+bool parseFolderCommand(const std::string& name, const po::options_description& visible, int argc, char* argv[],
+                        po::variables_map& vm, std::vector<std::string>& dirs) {
     po::options_description all;
     all.add(visible).add_options()("dir", po::value<std::vector<std::string>>(), "");
     po::positional_options_description pos;
     pos.add("dir", -1);
-    po::variables_map vm;
     try {
         po::store(po::command_line_parser(argc, argv).options(all).positional(pos).run(), vm);
         po::notify(vm);
     } catch (const po::error& e) {
-        std::cerr << "crowdhealth plot: error: " << e.what() << "\nTry 'crowdhealth plot --help' for more information.\n";
-        return kExitInput;
+        std::cerr << "crowdhealth " << name << ": error: " << e.what() << "\nTry 'crowdhealth " << name
+                  << " --help' for more information.\n";
+        return false;
     }
+    dirs = vm.count("dir") ? vm["dir"].as<std::vector<std::string>>() : std::vector<std::string>{};
+    return true;
+}
+
+int plotCommand(int argc, char* argv[]) {
+    po::options_description visible("Options");
+    visible.add_options()("quiet,q", "print nothing but errors")("help,h", "show this help");
+    po::variables_map vm;
+    std::vector<std::string> dirs;
+    if (!parseFolderCommand("plot", visible, argc, argv, vm, dirs)) return kExitInput;
     if (vm.count("help")) {
         std::cout << "Usage: crowdhealth plot DIR [-q]\n\n"
                      "Draws the figures of a finished run (DIR holds metrics.csv) or set of replications\n"
@@ -437,7 +446,6 @@ int plotCommand(int argc, char* argv[]) {
                                 "2 bad command line or DIR holds no run.\n";
         return kExitOk;
     }
-    const auto dirs = vm.count("dir") ? vm["dir"].as<std::vector<std::string>>() : std::vector<std::string>{};
     if (dirs.size() != 1) {
         std::cerr << "crowdhealth plot: error: give exactly one folder (a run or replications output folder)\n"
                      "Try 'crowdhealth plot --help' for more information.\n";

@@ -14,6 +14,8 @@
 #include "plot_data.h"
 #include "plot_gnuplot.h"
 
+#include <boost/program_options.hpp>
+
 #include <array>
 #include <filesystem>
 #include <optional>
@@ -26,6 +28,12 @@ namespace chcli {
 /// is missing or fails or DIR cannot be written; 2 for a bad command line or a DIR that holds no
 /// run.
 int plotCommand(int argc, char* argv[]);
+
+/// Parses the command line of a subcommand that takes folders (`plot`, `compare`): the `visible`
+/// options plus any number of DIR arguments, into vm and dirs. On a bad command line prints
+/// "crowdhealth NAME: error: …" with the --help hint and returns false.
+bool parseFolderCommand(const std::string& name, const boost::program_options::options_description& visible, int argc,
+                        char* argv[], boost::program_options::variables_map& vm, std::vector<std::string>& dirs);
 
 /// --plot, before anything runs: prints the error and returns false when gnuplot is missing.
 bool plotAvailable(const char* what);

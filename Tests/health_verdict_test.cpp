@@ -16,6 +16,23 @@
 using namespace ch;
 using namespace ch::test;
 
+namespace {
+/// A scenario run to its end, recording the safety measures every coarse step as the program does.
+struct VerdictRun {
+    Simulation sim;
+    SafetyRecorder safety;
+    Verdict verdict;
+    explicit VerdictRun(const ScenarioSpec& spec) : sim(spec) {
+        safety.record(sim);
+        while (!sim.finished()) {
+            sim.stepCoarse();
+            safety.record(sim);
+        }
+        verdict = safety.verdict(sim);
+    }
+};
+}  // namespace
+
 BOOST_AUTO_TEST_CASE(grid_density_and_pressure_follow_helbing_2007) {
     // A uniform block on a 0.5 m lattice (4 persons/m²) all walking at the same velocity: the
     // local density in the middle is close to 4, the crowd pressure 0 (no velocity variance).
@@ -47,18 +64,12 @@ BOOST_AUTO_TEST_CASE(sparse_free_walking_is_safe) {
                           0.5, {}, StepTiming::Fine, 0.0);
     ScenarioSpec s = scenario(agents, {p}, 0.1, 20);
     s.deltaTimeFine = 0.02;
-    Simulation sim(s);
-    SafetyRecorder safety;
-    safety.record(sim);
-    while (!sim.finished()) {
-        sim.stepCoarse();
-        safety.record(sim);
-    }
-    const Verdict v = safety.verdict(sim);
+    const VerdictRun run(s);
+    const Verdict& v = run.verdict;
     BOOST_TEST(v.level == "safe");
     BOOST_TEST(v.reasons.empty());
     BOOST_TEST(verdictJson(v) == "{\"level\": \"safe\", \"reasons\": []}");
-    const std::string heat = safety.heatmapCsv();
+    const std::string heat = run.safety.heatmapCsv();
     BOOST_TEST(heat.rfind("x,y,max_density,max_contact_accel,seconds_above_density_threshold,"
                           "seconds_above_crush_threshold\n", 0) == 0);
     BOOST_TEST(std::count(heat.begin(), heat.end(), '\n') > 100);
@@ -72,14 +83,8 @@ BOOST_AUTO_TEST_CASE(base_case_door_is_at_least_dangerous) {
     BOOST_REQUIRE_MESSAGE(spec.has_value(), msg.str());
     BOOST_REQUIRE(spec->policies.at(0).health.has_value());  // the base case carries the layer
     spec->endTime = 25;  // the queue at the door has formed long before
-    Simulation sim(*spec);
-    SafetyRecorder safety;
-    safety.record(sim);
-    while (!sim.finished()) {
-        sim.stepCoarse();
-        safety.record(sim);
-    }
-    const Verdict v = safety.verdict(sim);
+    const VerdictRun run(*spec);
+    const Verdict& v = run.verdict;
     BOOST_TEST_MESSAGE(verdictText(v));
     BOOST_TEST(verdictRank(v.level) >= 2, "verdict " << v.level);
     BOOST_REQUIRE(!v.reasons.empty());
@@ -98,7 +103,7 @@ BOOST_AUTO_TEST_CASE(base_case_door_is_at_least_dangerous) {
     BOOST_TEST(top.x <= top.xmax);
     // summary.json carries it.
     RunInfo info;
-    const std::string json = summaryJson(sim, info, MetricsPeaks{}, &v);
+    const std::string json = summaryJson(run.sim, info, MetricsPeaks{}, &v);
     BOOST_TEST(json.find("\"verdict\": {\"level\": \"" + v.level + "\", \"reasons\": [") != std::string::npos);
     BOOST_TEST(json.find("\"where\": {\"x\": ") != std::string::npos);
 }
@@ -116,14 +121,8 @@ BOOST_AUTO_TEST_CASE(injuries_make_it_critical) {
     p.health = h;
     ScenarioSpec s = scenario(agents, {p}, 0.1, 4);
     s.deltaTimeFine = 0.02;
-    Simulation sim(s);
-    SafetyRecorder safety;
-    safety.record(sim);
-    while (!sim.finished()) {
-        sim.stepCoarse();
-        safety.record(sim);
-    }
-    const Verdict v = safety.verdict(sim);
+    const VerdictRun run(s);
+    const Verdict& v = run.verdict;
     BOOST_TEST(v.level == "critical");
     BOOST_REQUIRE(!v.reasons.empty());
     BOOST_TEST(v.reasons.front().measure == "injured");
