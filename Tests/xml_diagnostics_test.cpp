@@ -7,6 +7,9 @@
 
 #include <sstream>
 #include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
 
 using namespace ch;
 
@@ -46,14 +49,23 @@ BOOST_AUTO_TEST_CASE(collects_everything_in_order) {
     BOOST_TEST(out.str() == "f.xml:1: warning: first\nf.xml:2: error: second\ng.xml:5: error: third\n");
 }
 
+/// Checks closestMatch(word, candidates) for each {word, suggestion} ("" when nothing is close enough).
+void checkSuggestions(const std::vector<std::string>& candidates,
+                      const std::vector<std::pair<std::string, std::string>>& wordAndSuggestion) {
+    for (const auto& [word, suggestion] : wordAndSuggestion)
+        BOOST_TEST_CONTEXT("word '" << word << "'") { BOOST_TEST(closestMatch(word, candidates) == suggestion); }
+}
+
 BOOST_AUTO_TEST_CASE(closest_match_suggests_near_names_only) {
     const std::vector<std::string> attrs = {"rad", "pref_speed", "max_speed", "max_acceleration", "goal_radius"};
-    BOOST_TEST(closestMatch("pref_sped", attrs) == "pref_speed");
-    BOOST_TEST(closestMatch("max_acceleraton", attrs) == "max_acceleration");
-    BOOST_TEST(closestMatch("RAD", attrs) == "rad");           // case-insensitive: distance 0
-    BOOST_TEST(closestMatch("ra", attrs) == "rad");
-    BOOST_TEST(closestMatch("colour", attrs) == "");           // nothing close
-    BOOST_TEST(closestMatch("", attrs) == "");
+    checkSuggestions(attrs, {
+        {"pref_sped", "pref_speed"},
+        {"max_acceleraton", "max_acceleration"},
+        {"RAD", "rad"},  // case-insensitive: distance 0
+        {"ra", "rad"},
+        {"colour", ""},  // nothing close
+        {"", ""},
+    });
     BOOST_TEST(closestMatch("rad", {}) == "");
     // Threshold max(2, len/3): a 12-letter word may be 4 edits away, a 3-letter one only 2.
     BOOST_TEST(closestMatch("GoalReachingFrc", {"GoalReachingForce", "SocialForcesAvoidance"}) == "GoalReachingForce");
@@ -116,25 +128,41 @@ Parsed parse(const ParamSpec& p, const std::string& text) {
     return r;
 }
 
+/// Checks that `p` reads each text as the value next to it.
+void checkValues(const ParamSpec& p, const std::vector<std::pair<std::string, double>>& textAndValue) {
+    for (const auto& [text, value] : textAndValue)
+        BOOST_TEST_CONTEXT(p.name << " = '" << text << "'") { BOOST_TEST(parse(p, text).value == value); }
+}
+
+/// Checks that `p` rejects each text with exactly the reason next to it.
+void checkReasons(const ParamSpec& p, const std::vector<std::pair<std::string, std::string>>& textAndWhy) {
+    for (const auto& [text, why] : textAndWhy)
+        BOOST_TEST_CONTEXT(p.name << " = '" << text << "'") { BOOST_TEST(parse(p, text).why == why); }
+}
+
 BOOST_AUTO_TEST_CASE(real_parsing_is_strict) {
     const ParamSpec r = radius();
     BOOST_TEST(parse(r, "0.3").ok);
-    BOOST_TEST(parse(r, "0.3").value == 0.3);
-    BOOST_TEST(parse(r, " 3e-1 ").value == 0.3);  // surrounding blanks are not part of the value
-    BOOST_TEST(parse(r, "+0.3").value == 0.3);
-    BOOST_TEST(parse(r, "10").ok);                 // inclusive maximum
-    BOOST_TEST(parse(r, "0").why == "0 is not in (0, 10] m");
-    BOOST_TEST(parse(r, "10.5").why == "10.5 is not in (0, 10] m");
-    BOOST_TEST(parse(r, "-1").why == "-1 is not in (0, 10] m");
-    BOOST_TEST(parse(r, "abc").why == "'abc' is not a number");
-    BOOST_TEST(parse(r, "0.3m").why == "'0.3m' is not a number");
-    BOOST_TEST(parse(r, "1,5").why == "'1,5' is not a number");
-    BOOST_TEST(parse(r, "").why == "an empty value is not a number");
-    BOOST_TEST(parse(r, "0x1").why == "'0x1' is not a number");
-    BOOST_TEST(parse(r, "nan").why == "'nan' is not a finite number");
-    BOOST_TEST(parse(r, "inf").why == "'inf' is not a finite number");
-    BOOST_TEST(parse(r, "-Infinity").why == "'-Infinity' is not a finite number");
-    BOOST_TEST(parse(r, "1e999").why == "'1e999' is not a finite number");
+    checkValues(r, {
+        {"0.3", 0.3},
+        {" 3e-1 ", 0.3},  // surrounding blanks are not part of the value
+        {"+0.3", 0.3},
+    });
+    BOOST_TEST(parse(r, "10").ok);  // inclusive maximum
+    checkReasons(r, {
+        {"0", "0 is not in (0, 10] m"},
+        {"10.5", "10.5 is not in (0, 10] m"},
+        {"-1", "-1 is not in (0, 10] m"},
+        {"abc", "'abc' is not a number"},
+        {"0.3m", "'0.3m' is not a number"},
+        {"1,5", "'1,5' is not a number"},
+        {"", "an empty value is not a number"},
+        {"0x1", "'0x1' is not a number"},
+        {"nan", "'nan' is not a finite number"},
+        {"inf", "'inf' is not a finite number"},
+        {"-Infinity", "'-Infinity' is not a finite number"},
+        {"1e999", "'1e999' is not a finite number"},
+    });
     BOOST_TEST(!parse(r, "abc").ok);
     BOOST_TEST(parse(r, "abc").value == -12345);  // untouched on failure
     const ParamSpec huge = ParamSpec::real("a_max", "m/s2", 5, 0, 1e300, "");
@@ -144,27 +172,30 @@ BOOST_AUTO_TEST_CASE(real_parsing_is_strict) {
 BOOST_AUTO_TEST_CASE(integer_parsing_is_strict) {
     const ParamSpec n = ParamSpec::integer("SpeedSamples", 3, 1, 1e300, "");
     BOOST_TEST(parse(n, "15").value == 15);
-    BOOST_TEST(parse(n, "2.5").why == "'2.5' is not a whole number");
-    BOOST_TEST(parse(n, "3.0").why == "'3.0' is not a whole number");
-    BOOST_TEST(parse(n, "1e3").why == "'1e3' is not a whole number");
-    BOOST_TEST(parse(n, "x").why == "'x' is not a number");
-    BOOST_TEST(parse(n, "0").why == "0 is not in [1, inf)");
-    BOOST_TEST(parse(n, "99999999999999999999999").why == "'99999999999999999999999' is too large");
+    checkReasons(n, {
+        {"2.5", "'2.5' is not a whole number"},
+        {"3.0", "'3.0' is not a whole number"},
+        {"1e3", "'1e3' is not a whole number"},
+        {"x", "'x' is not a number"},
+        {"0", "0 is not in [1, inf)"},
+        {"99999999999999999999999", "'99999999999999999999999' is too large"},
+    });
 }
 
 BOOST_AUTO_TEST_CASE(bool_and_choice_parsing) {
     const ParamSpec b = ParamSpec::boolean("remove_at_goal", false, "");
-    for (const char* t : {"true", "TRUE", "True", "1"}) BOOST_TEST(parse(b, t).value == 1.0);
-    for (const char* t : {"false", "False", "0"}) BOOST_TEST(parse(b, t).value == 0.0);
+    checkValues(b, {{"true", 1.0}, {"TRUE", 1.0}, {"True", 1.0}, {"1", 1.0}});
+    checkValues(b, {{"false", 0.0}, {"False", 0.0}, {"0", 0.0}});
     BOOST_TEST(parse(b, "yes").why == "'yes' is not a boolean (true, false, 1 or 0)");
     BOOST_TEST(!parse(b, "2").ok);
 
     const ParamSpec c = ParamSpec::choice("SamplingRadius", {"preferred speed", "maximum speed"}, 0, "");
-    BOOST_TEST(parse(c, "maximum speed").value == 1.0);
-    BOOST_TEST(parse(c, "Maximum Speed").value == 1.0);
-    BOOST_TEST(parse(c, "maximum sped").why ==
-               "'maximum sped' is not one of: preferred speed, maximum speed (did you mean 'maximum speed'?)");
-    BOOST_TEST(parse(c, "fast").why == "'fast' is not one of: preferred speed, maximum speed");
+    checkValues(c, {{"maximum speed", 1.0}, {"Maximum Speed", 1.0}});
+    checkReasons(c, {
+        {"maximum sped",
+         "'maximum sped' is not one of: preferred speed, maximum speed (did you mean 'maximum speed'?)"},
+        {"fast", "'fast' is not one of: preferred speed, maximum speed"},
+    });
 }
 
 BOOST_AUTO_TEST_CASE(param_set_defaults_and_values) {

@@ -15,9 +15,12 @@
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <optional>
 #include <regex>
 #include <set>
 #include <sstream>
+#include <string>
+#include <vector>
 
 using namespace ch;
 namespace fs = std::filesystem;
@@ -41,13 +44,19 @@ std::size_t countOpenings(const std::string& text, const std::string& name) {
                                                   std::sregex_iterator()));
 }
 
-/// Text of the scenario plus the file named by `<Block file="…">`, if any.
-std::string blockText(const fs::path& scenario, const std::string& block) {
+/// The file named by `<Block file="…">` in the scenario, if any.
+std::optional<fs::path> namedFile(const fs::path& scenario, const std::string& block) {
     const std::string main = slurp(scenario);
     std::smatch m;
     if (std::regex_search(main, m, std::regex("<" + block + "\\s+file=\"([^\"]+)\"")))
-        return slurp(scenario.parent_path() / m[1].str());
-    return main;
+        return scenario.parent_path() / m[1].str();
+    return std::nullopt;
+}
+
+/// Text of the file named by `<Block file="…">`, or of the scenario itself when it names none.
+std::string blockText(const fs::path& scenario, const std::string& block) {
+    const std::optional<fs::path> named = namedFile(scenario, block);
+    return slurp(named ? *named : scenario);
 }
 
 std::vector<fs::path> scenarios() {
@@ -59,6 +68,17 @@ std::vector<fs::path> scenarios() {
 }
 
 const std::regex kUnknownCost("unknown cost function '([^']+)'.*");
+
+/// The example `name` loaded, when every component it `needs` is registered: it must then load.
+/// Nothing (and nothing checked) while one of them is not registered yet.
+std::optional<ScenarioSpec> loadWhenRegistered(const std::string& name, const std::vector<std::string>& needs) {
+    for (const std::string& component : needs)
+        if (Registry::instance().find(component) == nullptr) return std::nullopt;
+    Diagnostics diags;
+    std::optional<ScenarioSpec> spec = loadScenario((kExamples / name).string(), diags);
+    BOOST_TEST_CONTEXT(name) { BOOST_REQUIRE(spec.has_value()); }
+    return spec;
+}
 
 }  // namespace
 
@@ -94,13 +114,12 @@ BOOST_AUTO_TEST_CASE(every_example_loads_or_waits_only_for_an_unregistered_cost_
 
         // Independent cross-checks against the raw text.
         BOOST_TEST(spec->agents.size() == countOpenings(blockText(file, "Agents"), "Agent"), name);
-        std::size_t obstacles = 0;
-        const std::string mainText = slurp(file);
-        std::smatch m;
-        if (std::regex_search(mainText, m, std::regex("<Obstacles\\s+file=\"([^\"]+)\"")))
-            obstacles = countOpenings(slurp(file.parent_path() / m[1].str()), "Obstacle");
+        const std::optional<fs::path> obstacleFile = namedFile(file, "Obstacles");
+        const std::size_t obstacles = obstacleFile ? countOpenings(slurp(*obstacleFile), "Obstacle") : 0;
         BOOST_TEST(spec->obstacles.size() == obstacles, name);
         BOOST_TEST(spec->deltaTime == 0.1, name);
+        const std::string mainText = slurp(file);
+        std::smatch m;
         const bool hasEnd = std::regex_search(mainText, m, std::regex("end_time=\"([^\"]+)\""));
         BOOST_TEST(spec->endTime == (hasEnd ? std::stod(m[1].str()) : -1.0), name);
         BOOST_TEST(!spec->policies.empty(), name);
@@ -134,10 +153,7 @@ BOOST_AUTO_TEST_CASE(every_example_loads_or_waits_only_for_an_unregistered_cost_
 }
 
 BOOST_AUTO_TEST_CASE(specific_examples_read_as_written) {
-    Diagnostics d;
-    const auto toric = loadScenario((kExamples / "Toric.xml").string(), d);
-    if (Registry::instance().find("VanToll") != nullptr) {
-        BOOST_REQUIRE(toric.has_value());
+    if (const auto toric = loadWhenRegistered("Toric.xml", {"VanToll"})) {
         BOOST_TEST((toric->world.type == WorldType::Toric));
         BOOST_TEST(toric->world.width == 10.0);
         BOOST_TEST(toric->world.height == 10.0);
@@ -155,11 +171,7 @@ BOOST_AUTO_TEST_CASE(specific_examples_read_as_written) {
         BOOST_TEST(s.components.at(0).params.get("range") == 5.0);
     }
 
-    Diagnostics e;
-    const auto block = loadScenario((kExamples / "BlockTest.xml").string(), e);
-    if (Registry::instance().find("SocialForcesAvoidance") != nullptr &&
-        Registry::instance().find("GoalReachingForce") != nullptr) {
-        BOOST_REQUIRE(block.has_value());
+    if (const auto block = loadWhenRegistered("BlockTest.xml", {"SocialForcesAvoidance", "GoalReachingForce"})) {
         BOOST_TEST(block->agents.empty());
         BOOST_REQUIRE(block->obstacles.size() == 1u);
         BOOST_TEST(block->obstacles[0].points.size() == 4u);
@@ -173,10 +185,7 @@ BOOST_AUTO_TEST_CASE(specific_examples_read_as_written) {
     }
 
     // RVO's random sampling settings, and the colour of the second agent of a 1-to-1 scenario.
-    Diagnostics f;
-    const auto rvo = loadScenario((kExamples / "1to1-90Degrees-RVO.xml").string(), f);
-    if (Registry::instance().find("RVO") != nullptr) {
-        BOOST_REQUIRE(rvo.has_value());
+    if (const auto rvo = loadWhenRegistered("1to1-90Degrees-RVO.xml", {"RVO"})) {
         const StepSpec& s = rvo->policies.at(0).steps.at(0);
         BOOST_TEST((s.sampling.type == SamplingSpec::Type::Random));
         BOOST_TEST((s.sampling.base == SamplingSpec::Base::CurrentVelocity));
