@@ -156,7 +156,7 @@ RunOutcome simulateAndWrite(ch::Simulation& sim, const RunPlan& plan, const fs::
 
     const ch::ScenarioSpec& spec = sim.spec();
     ch::MetricsRecorder metrics(spec.output.metricsInterval);
-    ch::SafetyRecorder safety;  // crowd measures per cell every coarse step (heat map, verdict)
+    ch::SafetyRecorder safety(spec.safety);  // crowd measures per cell every coarse step (heat map, verdict)
     // The text and binary trajectories are streamed into their .tmp files during the run, and
     // renamed with the other outputs at its end (removed if the run fails).
     std::optional<ch::TrajectoryOutput> trajectory;

@@ -1,8 +1,8 @@
 // docs/xml-reference.md carries a section generated from the registry (every cost function and
 // force with its parameter table). This test fails when that section differs from what the
 // program prints now, i.e. when a component was added or its table changed without running
-// scripts/gen-xml-reference.sh. It also checks the hand-written <CrowdHealth> table against the
-// layer's parameter table. (Named cli_* so that CMake builds the program before it.)
+// scripts/gen-xml-reference.sh. It also checks the hand-written <CrowdHealth> and <Safety> tables
+// against the program's parameter tables. (Named cli_* so that CMake builds the program before it.)
 #define BOOST_TEST_MODULE docs_reference
 #include <boost/test/unit_test.hpp>
 
@@ -10,6 +10,7 @@
 
 #include <crowdhealth/health.h>
 #include <crowdhealth/registry.h>
+#include <crowdhealth/safety.h>
 
 #include <string>
 #include <vector>
@@ -93,11 +94,12 @@ BOOST_AUTO_TEST_CASE(every_registered_component_has_a_heading_in_the_document) {
                    "docs/xml-reference.md has no heading '### " << name << "'; " << kHowToFix);
 }
 
-BOOST_AUTO_TEST_CASE(crowd_health_table_matches_the_layer) {
-    // The <CrowdHealth> table is written by hand (the program does not print it); each row must
-    // still carry the layer's unit, default and range, as `| `name` | unit | default | range |`.
+namespace {
+/// Each row of a hand-written parameter table must still carry the program's unit, default and
+/// range, as `| `name` | unit | default | range |`.
+void checkHandWrittenTable(const ch::ParamTable& table, const std::string& section) {
     const std::vector<std::string> docLines = lines(readFile(docPath()));
-    for (const ch::ParamSpec& p : ch::crowdHealthTable()) {
+    for (const ch::ParamSpec& p : table) {
         const std::string unit = p.unit.empty() ? "-" : p.unit;
         const std::string expected =
             "| `" + p.name + "` | " + unit + " | " + p.defaultText() + " | " + p.rangeText() + " |";
@@ -107,8 +109,18 @@ BOOST_AUTO_TEST_CASE(crowd_health_table_matches_the_layer) {
             present = true;
             found = found || l.rfind(expected, 0) == 0;
         }
-        BOOST_TEST(found, "docs/xml-reference.md, section <CrowdHealth>: "
+        BOOST_TEST(found, "docs/xml-reference.md, section " << section << ": "
                               << (present ? "the row of" : "no row for") << " '" << p.name
                               << "' should start with: " << expected);
     }
+}
+}  // namespace
+
+BOOST_AUTO_TEST_CASE(crowd_health_table_matches_the_layer) {
+    // The <CrowdHealth> table is written by hand (the program does not print it).
+    checkHandWrittenTable(ch::crowdHealthTable(), "<CrowdHealth>");
+}
+
+BOOST_AUTO_TEST_CASE(safety_table_matches_the_program) {
+    checkHandWrittenTable(ch::safetyTable(), "<Safety>");
 }

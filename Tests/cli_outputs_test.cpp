@@ -235,3 +235,21 @@ BOOST_AUTO_TEST_CASE(trajectories_option_selects_exactly_the_formats_asked_for) 
     for (const auto& l : text) dataRows += (!l.empty() && l[0] != '#') ? 1 : 0;
     BOOST_TEST(dataRows == 50u * 11u);
 }
+
+BOOST_AUTO_TEST_CASE(safety_thresholds_of_the_scenario_reach_the_verdict_and_the_heat_map) {
+    // Tests/data/health/safety.xml sets <Safety> far below the defaults (2 m cells, dangerous
+    // above 0.1 persons/m²): the program's summary.json and heatmap.csv follow it.
+    const fs::path dir = freshDir(caseName());
+    const std::string scenario = (fs::path(CH_SOURCE_DIR) / "Tests" / "data" / "health" / "safety.xml").string();
+    const Result r = run(dir, {"-i", scenario, "-o", "out", "-t", "1", "-q"});
+    BOOST_TEST(r.status == 0, r.err);
+    const std::string summary = readFile(dir / "out" / "summary.json");
+    BOOST_TEST(summary.find("\"verdict\": {\"level\": \"dangerous\"") != std::string::npos, summary);
+    BOOST_TEST(jsonValue(summary, "threshold") == 0.1);
+    BOOST_TEST(jsonValue(summary, "density_dangerous") == 0.1);  // "safety_thresholds": what judged it
+    BOOST_TEST(jsonValue(summary, "cell_size") == 2.0);
+    const auto heat = lines(readFile(dir / "out" / "heatmap.csv"));
+    BOOST_REQUIRE(heat.size() > 1u);
+    const double x = std::stod(split(heat[1], ',')[0]);
+    BOOST_TEST(std::fmod(std::abs(x), 2.0) == 1.0, "first heat-map row " << heat[1]);
+}

@@ -22,7 +22,7 @@ struct VerdictRun {
     Simulation sim;
     SafetyRecorder safety;
     Verdict verdict;
-    explicit VerdictRun(const ScenarioSpec& spec) : sim(spec) {
+    explicit VerdictRun(const ScenarioSpec& spec) : sim(spec), safety(spec.safety) {
         safety.record(sim);
         while (!sim.finished()) {
             sim.stepCoarse();
@@ -129,4 +129,46 @@ BOOST_AUTO_TEST_CASE(injuries_make_it_critical) {
     BOOST_TEST(v.reasons.front().people == 2u);
     BOOST_TEST(v.reasons.front().hasWhere);
     BOOST_TEST(std::abs(v.reasons.front().x - 0.75) < 0.5);
+}
+
+BOOST_AUTO_TEST_CASE(safety_thresholds_from_xml_decide_the_verdict) {
+    // Four agents in lanes 3 m apart: safe by the default thresholds; with <Safety> lowering the
+    // density levels to 0.05 / 0.1 / 50 persons/m² the same run is "dangerous", by the file's
+    // threshold, and the text no longer cites Still for it.
+    Diagnostics diags;
+    auto spec = loadScenario(std::string(CH_SOURCE_DIR) + "/Tests/data/health/safety.xml", diags);
+    std::ostringstream msg;
+    diags.print(msg);
+    BOOST_REQUIRE_MESSAGE(spec.has_value(), msg.str());
+    const SafetyThresholds& t = spec->safety;
+    BOOST_TEST(t.cellSize == 2.0);
+    BOOST_TEST(t.gaussianRadius == 1.0);
+    BOOST_TEST(t.densityCaution == 0.05);
+    BOOST_TEST(t.densityDangerous == 0.1);
+    BOOST_TEST(t.densityCritical == 50.0);
+    BOOST_TEST(t.crowdPressureCritical == 0.5);
+    BOOST_TEST(t.minDuration == 0.5);
+    BOOST_TEST(t.doseDangerousFraction == 0.25);
+
+    const VerdictRun strict(*spec);
+    BOOST_TEST_MESSAGE(verdictText(strict.verdict));
+    BOOST_TEST(strict.verdict.level == "dangerous");
+    BOOST_REQUIRE(!strict.verdict.reasons.empty());
+    const VerdictReason& r = strict.verdict.reasons.front();
+    BOOST_TEST(r.measure == "density");
+    BOOST_TEST(r.threshold == 0.1);
+    BOOST_TEST(r.people == 4u);
+    BOOST_TEST(r.text.find("threshold set in <Safety>") != std::string::npos, r.text);
+    BOOST_TEST(r.text.find("Still") == std::string::npos, r.text);
+    // heatmap.csv follows the 2 m grid: cell centres at odd metres.
+    std::istringstream heat(strict.safety.heatmapCsv());
+    std::string header, firstRow;
+    std::getline(heat, header);
+    std::getline(heat, firstRow);
+    const double x = std::stod(firstRow.substr(0, firstRow.find(',')));
+    BOOST_TEST(std::fmod(std::abs(x), 2.0) == 1.0, "first heat-map row " << firstRow);
+
+    spec->safety = SafetyThresholds{};
+    const VerdictRun relaxed(*spec);
+    BOOST_TEST(relaxed.verdict.level == "safe", verdictText(relaxed.verdict));
 }

@@ -70,6 +70,19 @@ BOOST_AUTO_TEST_CASE(crowdhealth_placement_errors) {
     BOOST_TEST(L.diags.errorCount() == 2);
 }
 
+BOOST_AUTO_TEST_CASE(safety_errors_carry_file_and_line) {
+    const std::string f = data("safety_errors.xml");
+    Load L(f);
+    BOOST_TEST(!L.spec.has_value());
+    CHECK_AT(L, f, 13, "error: unknown attribute 'crowd_presure' on <Safety> (did you mean 'crowd_pressure'?)");
+    CHECK_AT(L, f, 13, "error: Safety@cell_size: 0.1 is not in [0.25, 50] m");
+    CHECK_AT(L, f, 14, "error: Safety@density_critical: -2 is not in (0, 100] persons/m2");
+    CHECK_AT(L, f, 13, "error: Safety@density_dangerous (1.5) must be greater than density_caution (2.17, the default)");
+    CHECK_AT(L, f, 15, "error: more than one <Safety> (the first is at line 13)");
+    CHECK_AT(L, f, 16, "error: unknown element <Safty> in <Simulation> (did you mean 'Safety'?)");
+    BOOST_TEST(L.diags.errorCount() == 6);
+}
+
 BOOST_AUTO_TEST_CASE(the_paper_experiments_load_and_run) {
     struct Case {
         const char* file;

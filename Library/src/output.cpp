@@ -194,7 +194,7 @@ MetricsRow measureMetrics(Simulation& sim, double h) {
 
     row.meanPanic = sim.health().meanPanic(a);
     row.injured = sim.health().injuredCount();
-    const SafetyThresholds grid;
+    const SafetyThresholds& grid = sim.spec().safety;  // the verdict's grid (<Safety>)
     row.crowdPressure = crowdField(a, grid.cellSize, grid.gaussianRadius).maxPressure();
     row.schedule = sim.scheduleValues();
     return row;
@@ -591,7 +591,19 @@ std::string summaryJson(const Simulation& sim, const RunInfo& info, const Metric
          ", \"max_mean_density\": " + jsonNumber(peaks.maxMeanDensity) +
          ", \"max_contact_accel\": " + jsonNumber(peaks.maxContactAccel) +
          ", \"max_wall_penetration\": " + jsonNumber(peaks.maxWallPenetration) + "},\n";
-    if (verdict != nullptr) j += "  \"verdict\": " + verdictJson(*verdict, 2) + ",\n";
+    if (verdict != nullptr) {
+        j += "  \"verdict\": " + verdictJson(*verdict, 2) + ",\n";
+        // What the verdict was judged by, under the <Safety> attribute names.
+        const SafetyThresholds& t = sim.spec().safety;
+        j += "  \"safety_thresholds\": {\"cell_size\": " + jsonNumber(t.cellSize) +
+             ", \"gaussian_radius\": " + jsonNumber(t.gaussianRadius) +
+             ", \"density_caution\": " + jsonNumber(t.densityCaution) +
+             ", \"density_dangerous\": " + jsonNumber(t.densityDangerous) +
+             ", \"density_critical\": " + jsonNumber(t.densityCritical) +
+             ", \"crowd_pressure\": " + jsonNumber(t.crowdPressureCritical) +
+             ", \"min_duration\": " + jsonNumber(t.minDuration) +
+             ", \"dose_dangerous_fraction\": " + jsonNumber(t.doseDangerousFraction) + "},\n";
+    }
     j += "  \"threads\": " + std::to_string(info.threads) + ",\n";
     j += "  \"wall_time_s\": " + jsonNumber(info.wallTimeSeconds) + "\n";
     j += "}\n";

@@ -18,6 +18,36 @@ int cellIndex(double v, double c) { return static_cast<int>(std::floor(v / c)); 
 std::string fmt(double v, int digits = 3) { return formatNumber(v, digits); }
 }  // namespace
 
+const ParamTable& safetyTable() {
+    static const ParamTable t = [] {
+        const SafetyThresholds d;
+        ParamTable table = {
+            ParamSpec::real("cell_size", "m", d.cellSize, 0.25, 50,
+                            "cell of the grid on which density and crowd pressure are evaluated (and of heatmap.csv)"),
+            ParamSpec::real("gaussian_radius", "m", d.gaussianRadius, 0, 5,
+                            "R of the Gaussian weights exp(-d^2/R^2)/(pi R^2) of Helbing et al. 2007"),
+            ParamSpec::real("density_caution", "persons/m2", d.densityCaution, 0, 100,
+                            "local density above which the verdict says caution (Fruin: level of service F)"),
+            ParamSpec::real("density_dangerous", "persons/m2", d.densityDangerous, 0, 100,
+                            "... dangerous (Still: moving crowds at risk)"),
+            ParamSpec::real("density_critical", "persons/m2", d.densityCritical, 0, 100,
+                            "... critical (Still: crowd collapse)"),
+            ParamSpec::real("crowd_pressure", "1/s2", d.crowdPressureCritical, 0, 1e6,
+                            "crowd pressure above which (where the density is above density_caution) the verdict says "
+                            "dangerous (Helbing et al. 2007: crowd turbulence)"),
+            ParamSpec::real("min_duration", "s", d.minDuration, 0, 1e6,
+                            "seconds a density or pressure condition must hold, anywhere, to count"),
+            ParamSpec::real("dose_dangerous_fraction", "-", d.doseDangerousFraction, 0, 1,
+                            "crush is dangerous once someone's dose reaches this share of the policy's injuryDose"),
+        };
+        // Every one of them but min_duration is a strictly positive quantity.
+        for (ParamSpec& p : table)
+            if (p.name != "min_duration" && p.name != "cell_size") p.minExclusive = true;
+        return table;
+    }();
+    return t;
+}
+
 double CrowdField::maxDensity() const {
     double m = 0;
     for (double d : density) m = std::max(m, d);
@@ -205,20 +235,28 @@ VerdictReason SafetyRecorder::cellReason(Condition c, const std::string& level, 
 
 Verdict SafetyRecorder::verdict(const Simulation& sim) const {
     Verdict v;
+    // A threshold keeps its source in the text only while it is the default; one set in <Safety>
+    // is the user's.
+    const SafetyThresholds defaults;
+    auto what = [](const std::string& measure, double value, double def, const std::string& source) {
+        return measure + (value == def ? " (" + source + ")" : " (threshold set in <Safety>)");
+    };
     // Density: the highest level that held at least minDuration.
-    const struct { Condition c; const char* level; double threshold; const char* source; } density[] = {
-        {DensityCritical, "critical", t_.densityCritical, "local density (Still: crowd collapse)"},
-        {DensityDangerous, "dangerous", t_.densityDangerous, "local density (Still: moving crowd at risk)"},
-        {DensityCaution, "caution", t_.densityCaution, "local density (Fruin: level of service F)"},
+    const struct { Condition c; const char* level; double threshold, def; const char* source; } density[] = {
+        {DensityCritical, "critical", t_.densityCritical, defaults.densityCritical, "Still: crowd collapse"},
+        {DensityDangerous, "dangerous", t_.densityDangerous, defaults.densityDangerous, "Still: moving crowd at risk"},
+        {DensityCaution, "caution", t_.densityCaution, defaults.densityCaution, "Fruin: level of service F"},
     };
     for (const auto& d : density)
         if (timeline_[d.c].seconds >= t_.minDuration) {
-            v.reasons.push_back(cellReason(d.c, d.level, "density", d.threshold, "persons/m2", d.source));
+            v.reasons.push_back(cellReason(d.c, d.level, "density", d.threshold, "persons/m2",
+                                           what("local density", d.threshold, d.def, d.source)));
             break;
         }
     if (timeline_[Pressure].seconds >= t_.minDuration)
         v.reasons.push_back(cellReason(Pressure, "dangerous", "crowd_pressure", t_.crowdPressureCritical, "1/s2",
-                                       "crowd pressure (Helbing et al. 2007: crowd turbulence)"));
+                                       what("crowd pressure", t_.crowdPressureCritical, defaults.crowdPressureCritical,
+                                            "Helbing et al. 2007: crowd turbulence")));
 
     // Crush, from the per-agent records.
     const HealthLayer& h = sim.health();

@@ -4,6 +4,8 @@
 
 #include "xml_internal.h"
 
+#include "crowdhealth/safety.h"
+
 #include <algorithm>
 #include <cctype>
 #include <charconv>
@@ -521,6 +523,36 @@ void readOutput(LoadContext& ctx, const std::string& file, const XMLElement* el)
                                         " must be greater than flow_first (" + std::to_string(o.flowFirst) + ")");
 }
 
+/// <Safety>: the verdict's thresholds and the grid of the crowd measures (safetyTable()).
+void readSafety(LoadContext& ctx, const std::string& file, const XMLElement* el) {
+    ElementReader r(ctx, file, el, "Safety", safetyTable());
+    for (const XMLElement* c = el->FirstChildElement(); c != nullptr; c = c->NextSiblingElement())
+        reportUnexpectedElement(ctx, file, c, el->Name(), {});
+    SafetyThresholds& t = ctx.spec.safety;
+    t.cellSize = r.value("cell_size");
+    t.gaussianRadius = r.value("gaussian_radius");
+    t.densityCaution = r.value("density_caution");
+    t.densityDangerous = r.value("density_dangerous");
+    t.densityCritical = r.value("density_critical");
+    t.crowdPressureCritical = r.value("crowd_pressure");
+    t.minDuration = r.value("min_duration");
+    t.doseDangerousFraction = r.value("dose_dangerous_fraction");
+    // The three density levels must rise, or a level would never be reported. The message names
+    // both values as written (or the default) at the attribute that breaks the order.
+    auto shown = [&](const char* attr, double v) {
+        const std::optional<std::string> raw = r.text(attr);
+        return raw ? *raw : shortestText(v) + ", the default";
+    };
+    auto ordered = [&](const char* lowName, double low, const char* highName, double high) {
+        if (high > low) return;
+        const char* at = r.has(highName) ? highName : lowName;
+        r.error(r.loc(at), std::string("Safety@") + highName + " (" + shown(highName, high) +
+                               ") must be greater than " + lowName + " (" + shown(lowName, low) + ")");
+    };
+    ordered("density_caution", t.densityCaution, "density_dangerous", t.densityDangerous);
+    ordered("density_dangerous", t.densityDangerous, "density_critical", t.densityCritical);
+}
+
 /// Simulation@seed: a whole number ≥ 0 that may use all 64 bits (so not through a double).
 std::optional<std::uint64_t> readSeed(ElementReader& r) {
     const std::optional<std::string> raw = r.text("seed");
@@ -565,6 +597,7 @@ void readSimulation(LoadContext& ctx, const std::string& file, const XMLElement*
 
     const XMLElement* world = nullptr;
     const XMLElement* output = nullptr;
+    const XMLElement* safety = nullptr;
     for (const XMLElement* c = el->FirstChildElement(); c != nullptr; c = c->NextSiblingElement()) {
         if (is(c, "World")) {
             if (world != nullptr) {
@@ -582,6 +615,14 @@ void readSimulation(LoadContext& ctx, const std::string& file, const XMLElement*
             }
             output = c;
             readOutput(ctx, file, c);
+        } else if (is(c, "Safety")) {
+            if (safety != nullptr) {
+                ctx.diags.error(locOf(file, c), "more than one <Safety> (the first is at line " +
+                                                    std::to_string(safety->GetLineNum()) + ")");
+                continue;
+            }
+            safety = c;
+            readSafety(ctx, file, c);
         } else if (is(c, "Policies")) {
             readBlock(ctx, file, c, Block::Policies, false);
         } else if (is(c, "Agents")) {
@@ -593,7 +634,7 @@ void readSimulation(LoadContext& ctx, const std::string& file, const XMLElement*
             readSchedule(ctx, file, c);
         } else {
             reportUnexpectedElement(ctx, file, c, el->Name(),
-                                    {"World", "Policies", "Agents", "Obstacles", "Output", "Schedule"});
+                                    {"World", "Policies", "Agents", "Obstacles", "Output", "Safety", "Schedule"});
         }
     }
     if (world == nullptr) ctx.diags.error(r.loc(), "Simulation: missing required element <World>");

@@ -20,19 +20,9 @@
 
 namespace ch {
 
-/// The thresholds of the verdict and the grid of the crowd measures (docs/crowd-health.md gives
-/// the source of each).
-struct SafetyThresholds {
-    double cellSize = 1.0;            ///< m, grid cell of the crowd measures and the heat map
-    double gaussianRadius = 0.7;      ///< m, R of the Gaussian weights
-    double densityCaution = 2.17;     ///< persons/m², Fruin's walkway level of service F (< 0.46 m²/person)
-    double densityDangerous = 4.0;    ///< persons/m², Still: moving crowds at risk above ~4
-    double densityCritical = 6.0;     ///< persons/m², Still: crowd collapse/shock waves at ~6–7
-    double crowdPressureCritical = 0.02;  ///< 1/s², Helbing et al. 2007: onset of crowd turbulence;
-                                          ///< counted only where density > densityCaution
-    double minDuration = 1.0;         ///< s a density/pressure condition must hold (anywhere) to count
-    double doseDangerousFraction = 0.5;  ///< crush is `dangerous` once a dose reaches this share of injuryDose
-};
+/// The attributes of <Safety> (XML names, units, defaults = SafetyThresholds{}, ranges), for the
+/// loader and the documentation check.
+const ParamTable& safetyTable();
 
 /// The crowd measures on the cells covering the agents (one cell of margin).
 struct CrowdField {

@@ -170,6 +170,20 @@ struct OutputSpec {
     SourceLoc loc;
 };
 
+/// The thresholds of the safety verdict and the grid of the crowd measures (<Safety>,
+/// crowdhealth/safety.h; docs/crowd-health.md gives the source of each default).
+struct SafetyThresholds {
+    double cellSize = 1.0;            ///< m, grid cell of the crowd measures and the heat map
+    double gaussianRadius = 0.7;      ///< m, R of the Gaussian weights
+    double densityCaution = 2.17;     ///< persons/m², Fruin's walkway level of service F (< 0.46 m²/person)
+    double densityDangerous = 4.0;    ///< persons/m², Still: moving crowds at risk above ~4
+    double densityCritical = 6.0;     ///< persons/m², Still: crowd collapse/shock waves at ~6–7
+    double crowdPressureCritical = 0.02;  ///< 1/s², Helbing et al. 2007: onset of crowd turbulence;
+                                          ///< counted only where density > densityCaution
+    double minDuration = 1.0;         ///< s a density/pressure condition must hold (anywhere) to count
+    double doseDangerousFraction = 0.5;  ///< crush is `dangerous` once a dose reaches this share of injuryDose
+};
+
 /// The trajectory files a run writes (<Output trajectories>, crowdhealth --trajectories).
 struct TrajectoryFormats {
     bool umans = false;  ///< one output_<id>.csv per agent (UMANS)
@@ -200,6 +214,7 @@ struct ScenarioSpec {
     std::vector<RampSpec> ramps;             ///< <Schedule><Ramp>, in file order
     std::vector<PanicEventSpec> panicEvents; ///< <Schedule><PanicEvent>, in file order
     OutputSpec output;
+    SafetyThresholds safety;                 ///< <Safety>; defaults without it
 
     double fineStep() const { return deltaTimeFine > 0 ? deltaTimeFine : deltaTime; }
     /// Number of fine steps per coarse step (validated by the loader to be a whole number).
