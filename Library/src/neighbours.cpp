@@ -46,8 +46,12 @@ void NeighbourLists::build(const std::vector<Vec2>& positions, const PointGrid& 
             Place at;
             NeighbourAgent* list = out.open(at, grid.candidateCount(positions[i], r));
             std::size_t count = 0;
-            grid.forEachWithin(positions[i], r, [&](int j, const Vec2& d, double) {
-                if (j != self) list[count++] = NeighbourAgent{d, j};
+            const double r2 = r * r;
+            // Branch-free append: every candidate is written at `count`, which advances only for
+            // the others within r (the buffer holds candidateCount entries, so this stays inside).
+            grid.forEachCandidate(positions[i], r, [&](int j, const Vec2& d, double d2) {
+                list[count] = NeighbourAgent{d, j};
+                count += static_cast<std::size_t>((d2 <= r2) & (j != self));
             });
             out.close(at, count);
             agentSlice_[i] = slice(t, at, count);

@@ -25,6 +25,15 @@ public:
     template <class F>
     void forEachWithin(const Vec2& p, double radius, F&& f) const;
 
+    /// Calls f(j, offset, distSq) for every point forEachWithin(p, radius, ·) examines — the
+    /// points of the cells the query disc touches, in the same order — whether or not it lies
+    /// within `radius` (candidateCount(p, radius) calls). For callers that test the distance
+    /// without a branch (a list append that always writes and advances by the test's outcome):
+    /// in a crowd whose listing order within cells is irregular, the branch of forEachWithin is
+    /// mispredicted often enough to cost a third of the neighbour search (docs/performance.md).
+    template <class F>
+    void forEachCandidate(const Vec2& p, double radius, F&& f) const;
+
     /// How many points forEachWithin(p, radius, f) examines: an upper bound of how many it reports.
     std::size_t candidateCount(const Vec2& p, double radius) const;
 
@@ -101,10 +110,9 @@ private:
 // ---- template implementation -------------------------------------------------------------
 
 template <class F>
-void PointGrid::forEachWithin(const Vec2& query, double radius, F&& f) const {
+void PointGrid::forEachCandidate(const Vec2& query, double radius, F&& f) const {
     if (points_ == nullptr || sorted_.empty()) return;
     const Vec2 p = query;  // a local copy: f may store to memory the query point could alias
-    const double r2 = radius * radius;
     if (!periodic_) {
         // Only the cells touched by the query disc's bounding box (boxAround). Cells of one row
         // are contiguous in sorted_, so each row is one run over sortedPos_. The visit order (rows,
@@ -119,8 +127,7 @@ void PointGrid::forEachWithin(const Vec2& query, double radius, F&& f) const {
             const int end = cellStart_[row + b.x1 + 1];
             for (int k = cellStart_[row + b.x0]; k < end; ++k) {
                 const Vec2 d = sortedPos_[k] - p;
-                const double d2 = d.squaredNorm();
-                if (d2 <= r2) f(sorted_[k], d, d2);
+                f(sorted_[k], d, d.squaredNorm());
             }
         }
         return;
@@ -135,14 +142,20 @@ void PointGrid::forEachWithin(const Vec2& query, double radius, F&& f) const {
             const int y = ((cy + oy) % ny_ + ny_) % ny_;
             const int c = y * nx_ + x;
             for (int k = cellStart_[c]; k < cellStart_[c + 1]; ++k) {
-                const int j = sorted_[k];
                 Vec2 d = sortedPos_[k] - p;
                 d.x() -= width_ * std::round(d.x() / width_);
                 d.y() -= height_ * std::round(d.y() / height_);
-                const double d2 = d.squaredNorm();
-                if (d2 <= r2) f(j, d, d2);
+                f(sorted_[k], d, d.squaredNorm());
             }
         }
+}
+
+template <class F>
+void PointGrid::forEachWithin(const Vec2& query, double radius, F&& f) const {
+    const double r2 = radius * radius;
+    forEachCandidate(query, radius, [&](int j, const Vec2& d, double d2) {
+        if (d2 <= r2) f(j, d, d2);
+    });
 }
 
 }  // namespace ch
