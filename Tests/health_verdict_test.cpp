@@ -31,6 +31,16 @@ struct VerdictRun {
         verdict = safety.verdict(sim);
     }
 };
+
+/// A scenario of the repository (path below its top level), which must load.
+ScenarioSpec loadRepositoryScenario(const std::string& relative) {
+    Diagnostics diags;
+    auto spec = loadScenario(std::string(CH_SOURCE_DIR) + "/" + relative, diags);
+    std::ostringstream msg;
+    diags.print(msg);
+    BOOST_REQUIRE_MESSAGE(spec.has_value(), msg.str());
+    return *spec;
+}
 }  // namespace
 
 BOOST_AUTO_TEST_CASE(grid_density_and_pressure_follow_helbing_2007) {
@@ -76,14 +86,10 @@ BOOST_AUTO_TEST_CASE(sparse_free_walking_is_safe) {
 }
 
 BOOST_AUTO_TEST_CASE(base_case_door_is_at_least_dangerous) {
-    Diagnostics diags;
-    auto spec = loadScenario(std::string(CH_SOURCE_DIR) + "/Examples/doorway/base-case.xml", diags);
-    std::ostringstream msg;
-    diags.print(msg);
-    BOOST_REQUIRE_MESSAGE(spec.has_value(), msg.str());
-    BOOST_REQUIRE(spec->policies.at(0).health.has_value());  // the base case carries the layer
-    spec->endTime = 25;  // the queue at the door has formed long before
-    const VerdictRun run(*spec);
+    ScenarioSpec spec = loadRepositoryScenario("Examples/doorway/base-case.xml");
+    BOOST_REQUIRE(spec.policies.at(0).health.has_value());  // the base case carries the layer
+    spec.endTime = 25;  // the queue at the door has formed long before
+    const VerdictRun run(spec);
     const Verdict& v = run.verdict;
     BOOST_TEST_MESSAGE(verdictText(v));
     BOOST_TEST(verdictRank(v.level) >= 2, "verdict " << v.level);
@@ -135,12 +141,8 @@ BOOST_AUTO_TEST_CASE(safety_thresholds_from_xml_decide_the_verdict) {
     // Four agents in lanes 3 m apart: safe by the default thresholds; with <Safety> lowering the
     // density levels to 0.05 / 0.1 / 50 persons/m² the same run is "dangerous", by the file's
     // threshold, and the text no longer cites Still for it.
-    Diagnostics diags;
-    auto spec = loadScenario(std::string(CH_SOURCE_DIR) + "/Tests/data/health/safety.xml", diags);
-    std::ostringstream msg;
-    diags.print(msg);
-    BOOST_REQUIRE_MESSAGE(spec.has_value(), msg.str());
-    const SafetyThresholds& t = spec->safety;
+    ScenarioSpec spec = loadRepositoryScenario("Tests/data/health/safety.xml");
+    const SafetyThresholds& t = spec.safety;
     BOOST_TEST(t.cellSize == 2.0);
     BOOST_TEST(t.gaussianRadius == 1.0);
     BOOST_TEST(t.densityCaution == 0.05);
@@ -150,7 +152,7 @@ BOOST_AUTO_TEST_CASE(safety_thresholds_from_xml_decide_the_verdict) {
     BOOST_TEST(t.minDuration == 0.5);
     BOOST_TEST(t.doseDangerousFraction == 0.25);
 
-    const VerdictRun strict(*spec);
+    const VerdictRun strict(spec);
     BOOST_TEST_MESSAGE(verdictText(strict.verdict));
     BOOST_TEST(strict.verdict.level == "dangerous");
     BOOST_REQUIRE(!strict.verdict.reasons.empty());
@@ -168,7 +170,7 @@ BOOST_AUTO_TEST_CASE(safety_thresholds_from_xml_decide_the_verdict) {
     const double x = std::stod(firstRow.substr(0, firstRow.find(',')));
     BOOST_TEST(std::fmod(std::abs(x), 2.0) == 1.0, "first heat-map row " << firstRow);
 
-    spec->safety = SafetyThresholds{};
-    const VerdictRun relaxed(*spec);
+    spec.safety = SafetyThresholds{};
+    const VerdictRun relaxed(spec);
     BOOST_TEST(relaxed.verdict.level == "safe", verdictText(relaxed.verdict));
 }

@@ -598,31 +598,23 @@ void readSimulation(LoadContext& ctx, const std::string& file, const XMLElement*
     const XMLElement* world = nullptr;
     const XMLElement* output = nullptr;
     const XMLElement* safety = nullptr;
+    // <World>, <Output> and <Safety> may appear once: a second one is reported and skipped.
+    auto first = [&](const XMLElement*& seen, const XMLElement* c, const char* name) {
+        if (seen != nullptr) {
+            ctx.diags.error(locOf(file, c), std::string("more than one <") + name + "> (the first is at line " +
+                                                std::to_string(seen->GetLineNum()) + ")");
+            return false;
+        }
+        seen = c;
+        return true;
+    };
     for (const XMLElement* c = el->FirstChildElement(); c != nullptr; c = c->NextSiblingElement()) {
         if (is(c, "World")) {
-            if (world != nullptr) {
-                ctx.diags.error(locOf(file, c), "more than one <World> (the first is at line " +
-                                                    std::to_string(world->GetLineNum()) + ")");
-                continue;
-            }
-            world = c;
-            readWorld(ctx, file, c);
+            if (first(world, c, "World")) readWorld(ctx, file, c);
         } else if (is(c, "Output")) {
-            if (output != nullptr) {
-                ctx.diags.error(locOf(file, c), "more than one <Output> (the first is at line " +
-                                                    std::to_string(output->GetLineNum()) + ")");
-                continue;
-            }
-            output = c;
-            readOutput(ctx, file, c);
+            if (first(output, c, "Output")) readOutput(ctx, file, c);
         } else if (is(c, "Safety")) {
-            if (safety != nullptr) {
-                ctx.diags.error(locOf(file, c), "more than one <Safety> (the first is at line " +
-                                                    std::to_string(safety->GetLineNum()) + ")");
-                continue;
-            }
-            safety = c;
-            readSafety(ctx, file, c);
+            if (first(safety, c, "Safety")) readSafety(ctx, file, c);
         } else if (is(c, "Policies")) {
             readBlock(ctx, file, c, Block::Policies, false);
         } else if (is(c, "Agents")) {
