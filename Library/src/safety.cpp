@@ -40,7 +40,8 @@ const ParamTable& safetyTable() {
             ParamSpec::real("dose_dangerous_fraction", "-", d.doseDangerousFraction, 0, 1,
                             "crush is dangerous once someone's dose reaches this share of the policy's injuryDose"),
         };
-        // Every one of them but min_duration is a strictly positive quantity.
+        // Strictly positive quantities, except min_duration (0 = one step is enough) and cell_size,
+        // whose lower limit 0.25 m is itself allowed (finer cells only multiply the grid's size).
         for (ParamSpec& p : table)
             if (p.name != "min_duration" && p.name != "cell_size") p.minExclusive = true;
         return table;
