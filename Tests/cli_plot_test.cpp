@@ -193,28 +193,9 @@ void writeReplications(const fs::path& dir, const std::vector<FakeRun>& runs) {
 Result runWithoutGnuplot(const fs::path& dir, const std::vector<std::string>& args) {
     const fs::path empty = dir / "empty-path";
     fs::create_directories(empty);
-    // Built with += only: GCC 12 raises a false -Wrestrict on `"literal" + std::string` at -O2.
-    std::string cmd = "cd ";
-    cmd += shellQuote(dir.string());
-    cmd += " && env -u CROWDHEALTH_GNUPLOT PATH=";
-    cmd += shellQuote(empty.string());
-    cmd += ' ';
-    cmd += shellQuote(CH_BINARY);
-    for (const std::string& a : args) {
-        cmd += ' ';
-        cmd += shellQuote(a);
-    }
-    cmd += " >";
-    cmd += shellQuote((dir / "_stdout.txt").string());
-    cmd += " 2>";
-    cmd += shellQuote((dir / "_stderr.txt").string());
-    cmd += " </dev/null";
-    const int raw = std::system(cmd.c_str());
-    Result r;
-    r.status = (raw != -1 && WIFEXITED(raw)) ? WEXITSTATUS(raw) : -1;
-    r.out = readFile(dir / "_stdout.txt");
-    r.err = readFile(dir / "_stderr.txt");
-    return r;
+    std::string prefix = "env -u CROWDHEALTH_GNUPLOT PATH=";
+    prefix += shellQuote(empty.string());
+    return runIn(dir, prefix, CH_BINARY, args);
 }
 
 constexpr std::uint32_t kRun0Colour = 0x1f77b4, kRun1Colour = 0xff7f0e, kRun2Colour = 0x2ca02c;

@@ -52,14 +52,19 @@ inline std::string shellQuote(const std::string& s) {
     return q + "'";
 }
 
-/// Runs `crowdhealth args…` with `dir` as working folder; stdout/stderr are captured in files
-/// inside `dir` (named so that they never collide with the program's outputs).
-inline Result run(const fs::path& dir, const std::vector<std::string>& args) {
+/// Runs `prefix program args…` in a shell with `dir` as working folder (`prefix`: shell words put
+/// before the program, already quoted, e.g. an `env …` or `xvfb-run …`; may be empty). stdout and
+/// stderr are captured in files inside `dir` (named so that they never collide with a program's
+/// outputs); stdin is /dev/null.
+inline Result runIn(const fs::path& dir, const std::string& prefix, const std::string& program,
+                    const std::vector<std::string>& args) {
     // Built with += only: GCC 12 raises a false -Wrestrict on `"literal" + std::string` at -O2.
     std::string cmd = "cd ";
     cmd += shellQuote(dir.string());
     cmd += " && ";
-    cmd += shellQuote(CH_BINARY);
+    cmd += prefix;
+    if (!prefix.empty()) cmd += ' ';
+    cmd += shellQuote(program);
     for (const std::string& a : args) {
         cmd += ' ';
         cmd += shellQuote(a);
@@ -77,6 +82,9 @@ inline Result run(const fs::path& dir, const std::vector<std::string>& args) {
     r.err = readFile(err);
     return r;
 }
+
+/// Runs `crowdhealth args…` with `dir` as working folder (see runIn).
+inline Result run(const fs::path& dir, const std::vector<std::string>& args) { return runIn(dir, "", CH_BINARY, args); }
 
 inline std::vector<std::string> lines(const std::string& text) {
     std::vector<std::string> v;

@@ -32,22 +32,7 @@ boost::test_tools::assertion_result viewerAvailable(utf::test_unit_id) {
 #ifdef CH_VIEWER
 /// Runs the viewer under xvfb-run in `dir`.
 Result runViewer(const fs::path& dir, const std::vector<std::string>& args) {
-    // Built with += only (GCC 12 raises a false -Wrestrict on `"literal" + std::string` at -O2).
-    std::string cmd = "cd ";
-    cmd += shellQuote(dir.string());
-    cmd += " && xvfb-run -a -s '-screen 0 1280x1024x24' ";
-    cmd += shellQuote(CH_VIEWER);
-    for (const std::string& a : args) {
-        cmd += ' ';
-        cmd += shellQuote(a);
-    }
-    cmd += " >_stdout.txt 2>_stderr.txt </dev/null";
-    const int raw = std::system(cmd.c_str());
-    Result r;
-    r.status = (raw != -1 && WIFEXITED(raw)) ? WEXITSTATUS(raw) : -1;
-    r.out = readFile(dir / "_stdout.txt");
-    r.err = readFile(dir / "_stderr.txt");
-    return r;
+    return runIn(dir, "xvfb-run -a -s '-screen 0 1280x1024x24'", CH_VIEWER, args);
 }
 #endif
 

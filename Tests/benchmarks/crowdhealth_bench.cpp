@@ -14,6 +14,8 @@
 #include "crowdhealth/scenario.h"
 #include "crowdhealth/simulation.h"
 
+#include "../test_support.h"
+
 #include <omp.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
@@ -46,15 +48,8 @@ namespace {
 // ---------------------------------------------------------------------------------------------
 // Scenes
 
-ComponentSpec component(const std::string& name, const std::map<std::string, double>& values = {}) {
-    const ComponentInfo* info = Registry::instance().find(name);
-    if (info == nullptr) throw std::runtime_error("unregistered component " + name);
-    ComponentSpec c;
-    c.name = name;
-    c.params = ParamSet(Registry::fullTable(*info));
-    for (const auto& [k, v] : values) c.params.set(k, v);
-    return c;
-}
+using test::component;
+using test::policy;
 
 ObstacleSpec box(double x0, double y0, double x1, double y1) {
     ObstacleSpec o;
@@ -78,17 +73,10 @@ ScenarioSpec denseSph(std::size_t n, std::uint64_t seed = 1) {
     s.seed = seed;
     s.world.type = WorldType::Infinite;
 
-    PolicySpec p;
-    p.id = 0;
-    p.contactForceScale = 0;
-    StepSpec st;
-    st.timing = StepTiming::Fine;
-    st.method = OptimisationMethod::Gradient;
-    st.relaxationTime = 0.5;
-    st.components = {component("GoalReachingForce", {{"range", 0}, {"strength", 1}}),
-                     component("SPH", {{"range", 1}}), component("ContactForces", {{"range", 1}})};
-    p.steps.push_back(std::move(st));
-    s.policies.push_back(std::move(p));
+    s.policies.push_back(policy(0, OptimisationMethod::Gradient,
+                                {component("GoalReachingForce", {{"range", 0}, {"strength", 1}}),
+                                 component("SPH", {{"range", 1}}), component("ContactForces", {{"range", 1}})},
+                                0.5, {}, StepTiming::Fine, 0.0));
 
     const double spacing = 1.0 / std::sqrt(kDenseDensity);
     const std::size_t perRow = static_cast<std::size_t>(std::ceil(std::sqrt(static_cast<double>(n))));
@@ -129,16 +117,9 @@ ScenarioSpec socialForces(std::size_t n, std::uint64_t seed = 1) {
     s.deltaTime = 0.1;
     s.endTime = -1;
     s.seed = seed;
-    PolicySpec p;
-    p.id = 0;
-    p.contactForceScale = 62.5;
-    StepSpec st;
-    st.timing = StepTiming::Coarse;
-    st.method = OptimisationMethod::Gradient;
-    st.relaxationTime = 0.5;
-    st.components = {component("SocialForcesAvoidance", {{"range", 5}}), component("GoalReachingForce")};
-    p.steps.push_back(std::move(st));
-    s.policies.push_back(std::move(p));
+    s.policies.push_back(policy(0, OptimisationMethod::Gradient,
+                                {component("SocialForcesAvoidance", {{"range", 5}}), component("GoalReachingForce")},
+                                0.5, {}, StepTiming::Coarse, 62.5));
     const std::size_t perRow = static_cast<std::size_t>(std::ceil(std::sqrt(static_cast<double>(n))));
     std::mt19937_64 rng(seed);
     std::uniform_real_distribution<double> jitter(-0.1, 0.1);
