@@ -13,6 +13,7 @@ ComponentInfo ContactForces::Info() {
     info.name = "ContactForces";
     info.kind = ComponentKind::Force;
     info.defaultRange = 0.0;
+    info.modelsContact = true;
     info.summary = "linear contact springs between overlapping agents and between agents and walls (inside the a_max clamp)";
     info.reference = "van Toll et al. 2021, SPH crowds, Computers & Graphics 98 (contact forces); CrowdHealth paper eq. 1";
     info.params = {

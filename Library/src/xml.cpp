@@ -11,7 +11,10 @@
 #include <charconv>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <optional>
 #include <stdexcept>
+#include <string_view>
 
 namespace ch {
 
@@ -266,6 +269,38 @@ std::string friendlyErrorName(const char* name) {
     return s;
 }
 
+/// Why the file at `path` cannot be XML text, judged from its first bytes: empty, UTF-16/32 (which
+/// tinyxml2 would misread as garbage), or binary (NUL bytes or many control characters). nullopt
+/// when it looks like text (or cannot be read: the parser reports that).
+std::optional<std::string> notXmlText(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) return std::nullopt;
+    std::string head(64 * 1024, '\0');
+    in.read(head.data(), static_cast<std::streamsize>(head.size()));
+    head.resize(static_cast<std::size_t>(in.gcount()));
+    const auto starts = [&](std::string_view bom) { return head.compare(0, bom.size(), bom) == 0; };
+    if (head.empty()) return "the file is empty";
+    if (starts(std::string_view("\xFF\xFE\x00\x00", 4)) || starts(std::string_view("\x00\x00\xFE\xFF", 4)))
+        return "UTF-32 is not supported: save it as UTF-8";
+    if (starts("\xFF\xFE") || starts("\xFE\xFF")) return "UTF-16 is not supported: save it as UTF-8";
+    // UTF-16 without a byte-order mark: ASCII characters with a zero byte beside each.
+    if (head.size() >= 4 && ((head[0] == '<' && head[1] == '\0' && head[3] == '\0') ||
+                             (head[0] == '\0' && head[1] == '<' && head[2] == '\0')))
+        return "UTF-16 is not supported: save it as UTF-8";
+    std::size_t control = 0;
+    bool blank = true;
+    for (const char ch : head) {
+        const auto c = static_cast<unsigned char>(ch);
+        if (c == 0) return "not a text file (it holds NUL bytes): a scenario must be an XML text file";
+        if (c < 0x20 && c != '\t' && c != '\n' && c != '\r' && c != '\f') ++control;
+        if (c != ' ' && c != '\t' && c != '\n' && c != '\r') blank = false;
+    }
+    if (control * 20 > head.size())
+        return "not a text file (it holds control characters): a scenario must be an XML text file";
+    if (blank && !in) return "the file is empty (it holds only white space)";
+    return std::nullopt;
+}
+
 /// Loads and parses `path`. Reports a missing file at `namedBy` (the element whose file= names
 /// it) when given, and a syntax error at the line tinyxml2 stopped on.
 bool loadDocument(LoadContext& ctx, const std::string& path, const SourceLoc* namedBy,
@@ -284,8 +319,18 @@ bool loadDocument(LoadContext& ctx, const std::string& path, const SourceLoc* na
         ctx.diags.error(where, what + " is a directory, not an XML file");
         return false;
     }
+    if (const std::optional<std::string> problem = notXmlText(path)) {
+        std::string msg = *problem;
+        if (namedBy != nullptr) msg += " (named at " + namedBy->file + ":" + std::to_string(namedBy->line) + ")";
+        ctx.diags.error(SourceLoc{path, 1}, msg);
+        return false;
+    }
     const tinyxml2::XMLError err = doc.LoadFile(path.c_str());
     if (err == tinyxml2::XML_SUCCESS) return true;
+    if (err == tinyxml2::XML_ERROR_EMPTY_DOCUMENT) {
+        ctx.diags.error(SourceLoc{path, 1}, "the file holds no XML element");
+        return false;
+    }
     if (err == tinyxml2::XML_ERROR_FILE_NOT_FOUND || err == tinyxml2::XML_ERROR_FILE_COULD_NOT_BE_OPENED ||
         err == tinyxml2::XML_ERROR_FILE_READ_ERROR) {
         ctx.diags.error(where, "cannot read " + what);
@@ -311,6 +356,14 @@ void readExternalBlock(LoadContext& ctx, const std::string& file, const XMLEleme
     const SourceLoc namedBy{file, el->GetLineNum()};
     // Relative to the directory of the file that names it (UMANS resolves them the same way).
     const std::string path = (fs::path(file).parent_path() / fs::path(name)).string();
+    std::error_code same;
+    if (fs::equivalent(path, file, same)) {
+        ctx.diags.error(namedBy, std::string(blockName(kind)) + "@file: '" + name +
+                                     "' is this file itself: a file cannot include itself");
+        if (kind == Block::Policies) ctx.policiesIncomplete = true;
+        if (kind == Block::Agents) ctx.agentsIncomplete = true;
+        return;
+    }
     tinyxml2::XMLDocument doc;
     if (!loadDocument(ctx, path, &namedBy, name, doc)) {
         if (kind == Block::Policies) ctx.policiesIncomplete = true;
@@ -338,9 +391,21 @@ void readExternalBlock(LoadContext& ctx, const std::string& file, const XMLEleme
 void readBlock(LoadContext& ctx, const std::string& file, const XMLElement* el, Block kind, bool external) {
     static const ParamTable none;
     // A file named by file= cannot name another one: no chains, no cycles.
-    ElementReader r(ctx, file, el, blockName(kind), none,
-                    external ? std::vector<std::string>{} : std::vector<std::string>{"file"});
-    if (std::optional<std::string> name = r.text("file"); name && !external) {
+    ElementReader r(ctx, file, el, blockName(kind), none, {"file"});
+    if (std::optional<std::string> name = r.text("file"); name && external) {
+        namespace fs = std::filesystem;
+        std::error_code same;
+        const std::string path = (fs::path(file).parent_path() / fs::path(*name)).string();
+        r.error(r.loc("file"), fs::equivalent(path, file, same)
+                                   ? std::string(blockName(kind)) + "@file: '" + *name +
+                                         "' is this file itself: a file cannot include itself"
+                                   : std::string(blockName(kind)) + "@file: a file named by file= cannot name "
+                                         "another file; put the <" + blockName(kind) + "> content here or name '" +
+                                         *name + "' from the main scenario");
+        if (kind == Block::Policies) ctx.policiesIncomplete = true;
+        if (kind == Block::Agents) ctx.agentsIncomplete = true;
+        return;
+    } else if (name) {
         if (el->FirstChildElement() != nullptr)
             r.error(r.loc("file"), std::string("<") + el->Name() +
                                        " file=…> must not also contain elements; use one or the other");
@@ -535,6 +600,7 @@ void readSafety(LoadContext& ctx, const std::string& file, const XMLElement* el)
     t.densityDangerous = r.value("density_dangerous");
     t.densityCritical = r.value("density_critical");
     t.crowdPressureCritical = r.value("crowd_pressure");
+    t.pressureWindow = r.value("pressure_window");
     t.minDuration = r.value("min_duration");
     t.doseDangerousFraction = r.value("dose_dangerous_fraction");
     // The three density levels must rise, or a level would never be reported. The message names
@@ -710,6 +776,7 @@ std::optional<ScenarioSpec> loadScenario(const std::string& path, Diagnostics& d
     assignAgentIds(ctx);
     checkPolicyRefs(ctx);
     checkSchedule(ctx);
+    checkWallModels(ctx);
     if (ctx.policyIds.empty() && !ctx.policiesIncomplete)
         diags.error(locOf(path, simulation),
                     "no policy defined: a scenario needs a <Policies> block with at least one <Policy>");

@@ -115,6 +115,9 @@ void addAgent(LoadContext& ctx, AgentSpec agent, bool explicitId, const SourceLo
 
 // Element readers, one per topic file.
 void readPolicy(LoadContext& ctx, const std::string& file, const XMLElement* el);
+/// Once obstacles and policies are loaded: resolves SPH@walls where the file is silent and warns
+/// where it contradicts the obstacles (xml_policies.cpp).
+void checkWallModels(LoadContext& ctx);
 void readAgent(LoadContext& ctx, const std::string& file, const XMLElement* el);
 void readAgentGrid(LoadContext& ctx, const std::string& file, const XMLElement* el);
 void readSpawnRectangle(LoadContext& ctx, const std::string& file, const XMLElement* el);

@@ -137,7 +137,10 @@ std::optional<ComponentSpec> readComponent(LoadContext& ctx, const std::string& 
     spec.loc = r.loc();
     spec.params = ParamSet(table);
     for (const ParamSpec& p : table)
-        if (std::optional<double> v = r.optional(p.name)) spec.params.set(p.name, *v);
+        if (std::optional<double> v = r.optional(p.name)) {
+            spec.params.set(p.name, *v);
+            spec.written[p.name] = r.loc(p.name);
+        }
     spec.coeff = spec.params.get("coeff");
     return spec;
 }
@@ -229,6 +232,31 @@ void checkBlends(LoadContext& ctx, const PolicySpec& policy) {
     }
 }
 
+/// Contact is applied once. UMANS' post-step contact (Policy@ContactForceScale, default 62.5 as in
+/// UMANS 1.x) and a component that models contact (ContactForces) are two models of the same
+/// bodies pushing apart; a policy that lists such a component gets no implicit UMANS contact. A
+/// file that asks for both explicitly gets them, with a warning that names both places.
+void settleContact(LoadContext& ctx, ElementReader& r, PolicySpec& policy) {
+    const ComponentSpec* contact = nullptr;
+    for (const StepSpec& step : policy.steps)
+        for (const ComponentSpec& c : step.components) {
+            const ComponentInfo* info = Registry::instance().find(c.name);
+            if (contact == nullptr && info != nullptr && info->modelsContact) contact = &c;
+        }
+    if (contact == nullptr) return;
+    if (!r.has("ContactForceScale")) {
+        policy.contactForceScale = 0;
+        return;
+    }
+    if (policy.contactForceScale > 0)
+        ctx.diags.warning(r.loc("ContactForceScale"),
+                          "Policy@ContactForceScale=" + r.text("ContactForceScale").value_or("") +
+                              " adds UMANS' post-step contact on top of " + contact->name + " (" + contact->loc.file +
+                              ":" + std::to_string(contact->loc.line) +
+                              "): body contact is applied twice; remove ContactForceScale (or set it to 0) to "
+                              "keep only " + contact->name);
+}
+
 void readStep(LoadContext& ctx, const std::string& file, const XMLElement* el, PolicySpec& policy) {
     ElementReader r(ctx, file, el, "Step", stepTable(), {"BlendField"});
     StepSpec step;
@@ -248,6 +276,38 @@ void readStep(LoadContext& ctx, const std::string& file, const XMLElement* el, P
 }
 
 }  // namespace
+
+void checkWallModels(LoadContext& ctx) {
+    // SPH's wall density comes either from boundary particles (<Box particles="true">) or from the
+    // analytic area behind each wall segment. Where the file does not choose, the obstacles decide:
+    // particles when it has them (they were written to be used), analytic otherwise. A choice that
+    // contradicts the obstacles is kept and warned about, naming both places.
+    const ObstacleSpec* withParticles = nullptr;
+    for (const ObstacleSpec& o : ctx.spec.obstacles)
+        if (withParticles == nullptr && !o.particles.empty()) withParticles = &o;
+    const auto where = [](const SourceLoc& l) { return l.file + ":" + std::to_string(l.line); };
+    for (PolicySpec& policy : ctx.spec.policies)
+        for (StepSpec& step : policy.steps)
+            for (ComponentSpec& c : step.components) {
+                if (c.name != "SPH" || !c.params.has("walls")) continue;
+                const auto written = c.written.find("walls");
+                if (written == c.written.end()) {
+                    if (withParticles != nullptr) c.params.set("walls", 0);  // "particles"
+                    continue;
+                }
+                const std::string walls = c.params.choice("walls");
+                if (walls == "analytic" && withParticles != nullptr)
+                    ctx.diags.warning(written->second,
+                                      "SPH@walls=\"analytic\" ignores the SPH boundary particles of the obstacle at " +
+                                          where(withParticles->loc) +
+                                          ": wall density comes from the wall segments only; use walls=\"particles\" "
+                                          "or drop particles=\"true\"");
+                else if (walls == "particles" && withParticles == nullptr)
+                    ctx.diags.warning(written->second,
+                                      "SPH@walls=\"particles\" but no obstacle carries boundary particles "
+                                      "(<Box particles=\"true\">): walls add no SPH density; use walls=\"analytic\"");
+            }
+}
 
 void readPolicy(LoadContext& ctx, const std::string& file, const XMLElement* el) {
     bool hasSteps = false, hasComponents = false;
@@ -303,6 +363,7 @@ void readPolicy(LoadContext& ctx, const std::string& file, const XMLElement* el)
             r.error(r.loc(), "Policy " + std::to_string(policy.id) + ": needs at least one <costfunction>");
         policy.steps.push_back(std::move(step));
     }
+    settleContact(ctx, r, policy);
     if (idUsable) ctx.spec.policies.push_back(std::move(policy));
 }
 

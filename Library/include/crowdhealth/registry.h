@@ -23,6 +23,10 @@ struct ComponentInfo {
     /// Default of the common `range` parameter (m): how far this component looks. 0 for
     /// components that need no neighbourhood (the step's query then only covers contact reach).
     double defaultRange = 5.0;
+    /// True for components that model body contact themselves (ContactForces). A policy with one
+    /// in any step gets no implicit UMANS post-step contact (PolicySpec::contactForceScale is 0
+    /// unless the file sets ContactForceScale, which is then warned about): contact is applied once.
+    bool modelsContact = false;
     std::function<std::unique_ptr<Component>(const ParamSet&)> create;
 };
 

@@ -59,6 +59,10 @@ struct ComponentSpec {
     std::string name;       ///< registered name, e.g. "SocialForcesAvoidance"
     double coeff = 1.0;     ///< weight in the step's sum (UMANS `coeff`)
     ParamSet params;        ///< every parameter of the component's table, defaults filled in
+    /// The parameters the file wrote, with their places: a default that depends on the rest of
+    /// the scenario (SPH@walls) is only resolved where the file is silent, and settings that
+    /// conflict are warned about at their lines.
+    std::map<std::string, SourceLoc> written;
     SourceLoc loc;
 };
 
@@ -100,7 +104,9 @@ struct PolicySpec {
     std::string name;
     std::vector<StepSpec> steps;
     /// UMANS' post-clamp contact force stiffness (N/m per unit mass, applied after the
-    /// acceleration clamp); 0 disables it.
+    /// acceleration clamp); 0 disables it. The loader sets it to 0 when the file does not write
+    /// ContactForceScale and a step lists a component that models contact (ContactForces), so
+    /// body contact is applied once (docs/policies.md, "Contact is applied once").
     double contactForceScale = 62.5;
     /// Absent: crush and panic are still measured with the layer's defaults, with no effect on
     /// motion (docs/crowd-health.md).
@@ -180,6 +186,9 @@ struct SafetyThresholds {
     double densityCritical = 6.0;     ///< persons/m², Still: crowd collapse/shock waves at ~6–7
     double crowdPressureCritical = 0.02;  ///< 1/s², Helbing et al. 2007: onset of crowd turbulence;
                                           ///< counted only where density > densityCaution
+    /// s, time constant of the exponential time averages of crowd pressure (the local velocity's
+    /// mean and variance in time, and the density, at each place; crowdhealth/safety.h).
+    double pressureWindow = 5.0;
     double minDuration = 1.0;         ///< s a density/pressure condition must hold (anywhere) to count
     double doseDangerousFraction = 0.5;  ///< crush is `dangerous` once a dose reaches this share of injuryDose
 };
