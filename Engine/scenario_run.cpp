@@ -157,6 +157,7 @@ RunOutcome simulateAndWrite(ch::Simulation& sim, const RunPlan& plan, const fs::
     const ch::ScenarioSpec& spec = sim.spec();
     ch::MetricsRecorder metrics(spec.output.metricsInterval);
     ch::SafetyRecorder safety(spec.safety);  // crowd measures per cell every coarse step (heat map, verdict)
+    metrics.setCrowdPressure(&safety);
     // The text and binary trajectories are streamed into their .tmp files during the run, and
     // renamed with the other outputs at its end (removed if the run fails).
     std::optional<ch::TrajectoryOutput> trajectory;
@@ -184,8 +185,8 @@ RunOutcome simulateAndWrite(ch::Simulation& sim, const RunPlan& plan, const fs::
 
     const auto wallStart = std::chrono::steady_clock::now();
     try {
+        safety.record(sim);   // before the metrics row: it gives the crowd_pressure column
         metrics.sample(sim);  // the t = 0 row, before the first step
-        safety.record(sim);
         if (trajectory) trajectory->record(sim);  // frame 0
         if (!probeDone) probe();
         while (!sim.finished()) {
@@ -194,8 +195,8 @@ RunOutcome simulateAndWrite(ch::Simulation& sim, const RunPlan& plan, const fs::
                 break;
             }
             sim.stepCoarse();
-            metrics.maybeSample(sim);
             safety.record(sim);
+            metrics.maybeSample(sim);
             if (trajectory) trajectory->maybeRecord(sim);
             if (!probeDone) probe();
             if (hooks.afterStep) hooks.afterStep(sim);

@@ -10,6 +10,7 @@
 #include "crowdhealth/safety.h"
 #include "crowdhealth/xml.h"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -43,27 +44,104 @@ ScenarioSpec loadRepositoryScenario(const std::string& relative) {
 }
 }  // namespace
 
-BOOST_AUTO_TEST_CASE(grid_density_and_pressure_follow_helbing_2007) {
-    // A uniform block on a 0.5 m lattice (4 persons/m²) all walking at the same velocity: the
-    // local density in the middle is close to 4, the crowd pressure 0 (no velocity variance).
+namespace {
+/// A 20 x 20 lattice of agents, `spacing` apart from (spacing/2, spacing/2), standing still.
+AgentStore lattice(double spacing) {
     AgentStore a;
     for (int x = 0; x < 20; ++x)
-        for (int y = 0; y < 20; ++y) {
-            AgentSpec s = agent(x * 20 + y, {0.25 + 0.5 * x, 0.25 + 0.5 * y}, {100, 0});
-            a.add(s, 0);
-            a.vel.back() = Vec2(1.0, 0.0);
-        }
+        for (int y = 0; y < 20; ++y)
+            a.add(agent(x * 20 + y, {spacing * (0.5 + x), spacing * (0.5 + y)}, {100, 0}), 0);
+    return a;
+}
+
+/// The verdict of a recorder fed with recordCrowd() (no health records: an empty simulation).
+Verdict crowdVerdict(const SafetyRecorder& r) {
+    const Simulation empty(scenario({}, {policy(0, OptimisationMethod::Gradient,
+                                                {component("GoalReachingForce", {{"range", 0.0}})})}));
+    return r.verdict(empty);
+}
+
+/// Feeds `r` the lattice every 0.1 s from t0 for `seconds`, the velocity of agent i at step k
+/// given by velocity(i, k). Returns the time reached.
+template <class F>
+double feed(SafetyRecorder& r, AgentStore& a, double t0, double seconds, F velocity) {
+    const int steps = static_cast<int>(std::lround(seconds / 0.1));
+    double t = t0;
+    for (int k = 0; k < steps; ++k) {
+        t = t0 + 0.1 * (k + 1);
+        for (std::size_t i = 0; i < a.size(); ++i) a.vel[i] = velocity(i, k);
+        r.recordCrowd(a, t);
+    }
+    return t;
+}
+}  // namespace
+
+BOOST_AUTO_TEST_CASE(grid_density_and_local_velocity_follow_helbing_2007) {
+    // A uniform block on a 0.5 m lattice (4 persons/m²) walking at 1 m/s along x: the local
+    // density in the middle is close to 4 and the local velocity (1, 0).
+    AgentStore a = lattice(0.5);
+    for (Vec2& v : a.vel) v = Vec2(1.0, 0.0);
     CrowdField f = crowdField(a, 1.0, 0.7);
     const int ix = 5 - f.ix0, iy = 5 - f.iy0;  // the cell [5, 6) x [5, 6), centre (5.5, 5.5)
-    const double mid = f.density[static_cast<std::size_t>(iy * f.nx + ix)];
-    BOOST_TEST(std::abs(mid - 4.0) < 0.05, "density " << mid);
-    BOOST_TEST(f.maxPressure() < 1e-20);
-    // Alternate velocities ±1 m/s along x: variance 1 (m/s)², pressure ≈ density.
-    for (std::size_t i = 0; i < a.size(); ++i) a.vel[i] = Vec2(i % 2 ? 1.0 : -1.0, 0.0);
+    const std::size_t mid = static_cast<std::size_t>(iy * f.nx + ix);
+    BOOST_TEST(std::abs(f.density[mid] - 4.0) < 0.05, "density " << f.density[mid]);
+    BOOST_TEST((f.velocity[mid] - Vec2(1.0, 0.0)).norm() < 1e-12);
+    BOOST_TEST(f.people[mid] == 4);
+    // Alternate ±1 m/s along x from column to column: the Gaussian-weighted mean is close to 0.
+    for (std::size_t i = 0; i < a.size(); ++i) a.vel[i] = Vec2((i / 20) % 2 ? 1.0 : -1.0, 0.0);
     f = crowdField(a, 1.0, 0.7);
-    const double p = f.pressure[static_cast<std::size_t>(iy * f.nx + ix)];
-    BOOST_TEST(std::abs(p - 4.0) < 0.2, "pressure " << p);
-    BOOST_TEST(f.people[static_cast<std::size_t>(iy * f.nx + ix)] == 4);
+    BOOST_TEST(f.velocity[mid].norm() < 0.1, "local velocity " << f.velocity[mid].transpose());
+    // Far from every agent the local velocity is undefined.
+    BOOST_TEST(f.weighted[mid] == 1);
+}
+
+BOOST_AUTO_TEST_CASE(crowd_pressure_is_the_variance_in_time_of_the_local_velocity) {
+    // Helbing et al. 2007: P = rho * <|V(r,t) - U(r)|^2>_t. Columns walking in opposite
+    // directions, steadily, vary in space but not in time: no pressure (the instantaneous
+    // velocity variance, ~1 (m/s)^2 here, would give ~4 /s^2).
+    AgentStore a = lattice(0.5);
+    SafetyThresholds th;  // 5 s window
+    SafetyRecorder steady(th);
+    feed(steady, a, 0.0, 20.0, [](std::size_t i, int) { return Vec2((i / 20) % 2 ? 1.0 : -1.0, 0.0); });
+    BOOST_TEST(steady.maxPressure() < 1e-9, "steady counter-flow " << steady.maxPressure());
+    BOOST_TEST(verdictRank(crowdVerdict(steady).level) >= 1);  // the density is a reason, pressure is not
+    for (const VerdictReason& r : crowdVerdict(steady).reasons) BOOST_TEST(r.measure != "crowd_pressure");
+
+    // The whole block surging back and forth, +-1 m/s every 0.1 s: V(r,t) = +-1, variance 1, P ~ rho.
+    SafetyRecorder surging(th);
+    const auto surge = [](std::size_t, int k) { return Vec2(k % 2 ? 1.0 : -1.0, 0.0); };
+    double t = feed(surging, a, 0.0, 1.0, surge);
+    // One fifth of a window in, the time average has seen little of it (exponential window).
+    const double early = surging.maxPressure();
+    t = feed(surging, a, t, 29.0, surge);
+    const double late = surging.maxPressure();
+    BOOST_TEST(late > 3.6, "pressure after 6 windows " << late);
+    BOOST_TEST(late < 4.4, "pressure after 6 windows " << late);
+    BOOST_TEST(early < 0.35 * late, "pressure after 1 s " << early << " vs " << late);
+    const Verdict v = crowdVerdict(surging);
+    const auto pressure = std::find_if(v.reasons.begin(), v.reasons.end(),
+                                       [](const VerdictReason& r) { return r.measure == "crowd_pressure"; });
+    BOOST_REQUIRE(pressure != v.reasons.end());
+    BOOST_TEST(pressure->firstTime < 1.0);  // 0.02 /s^2 is passed within the first second
+    BOOST_TEST(pressure->duration > 28.0);
+
+    // A longer window averages more slowly: after 1 s, less of the variance is seen.
+    th.pressureWindow = 20.0;
+    SafetyRecorder slow(th);
+    feed(slow, a, 0.0, 1.0, surge);
+    BOOST_TEST(slow.maxPressure() < 0.5 * early, "20 s window " << slow.maxPressure() << " vs 5 s " << early);
+}
+
+BOOST_AUTO_TEST_CASE(crowd_pressure_counts_only_in_dense_crowds) {
+    // People passing the same place in different directions at low density (here a sparse
+    // 2 m lattice, 0.25 persons/m^2, whose velocity flips every 0.1 s) also make the local
+    // velocity vary in time: the pressure passes 0.02 /s^2, yet it is no reason in the verdict,
+    // which counts pressure only above density_caution (Helbing et al. saw turbulence at 7-9 /m^2).
+    AgentStore a = lattice(2.0);
+    SafetyRecorder r{SafetyThresholds{}};
+    feed(r, a, 0.0, 20.0, [](std::size_t, int k) { return Vec2(0.0, k % 2 ? 1.3 : -1.3); });
+    BOOST_TEST(r.maxPressure() > 0.02);
+    BOOST_TEST(crowdVerdict(r).level == "safe");
 }
 
 BOOST_AUTO_TEST_CASE(sparse_free_walking_is_safe) {

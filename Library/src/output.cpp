@@ -194,8 +194,9 @@ MetricsRow measureMetrics(Simulation& sim, double h) {
 
     row.meanPanic = sim.health().meanPanic(a);
     row.injured = sim.health().injuredCount();
-    const SafetyThresholds& grid = sim.spec().safety;  // the verdict's grid (<Safety>)
-    row.crowdPressure = crowdField(a, grid.cellSize, grid.gaussianRadius).maxPressure();
+    // Crowd pressure is a time average at each place: only a recorder that follows the run
+    // (SafetyRecorder, via MetricsRecorder::setCrowdPressure) knows it; one instant does not.
+    row.crowdPressure = std::numeric_limits<double>::quiet_NaN();
     row.schedule = sim.scheduleValues();
     return row;
 }
@@ -222,8 +223,14 @@ void MetricsRecorder::sample(Simulation& sim) {
     const double t = sim.time();
     if (!rows_.empty() && rows_.back().time == t) return;
     if (rows_.empty()) scheduleColumns_ = sim.scheduleColumns();
-    rows_.push_back(measureMetrics(sim, h_));
+    rows_.push_back(measure(sim));
     clock_.taken(t);
+}
+
+MetricsRow MetricsRecorder::measure(Simulation& sim) const {
+    MetricsRow row = measureMetrics(sim, h_);
+    if (pressure_ != nullptr) row.crowdPressure = pressure_->maxPressure();
+    return row;
 }
 
 bool MetricsRecorder::maybeSample(Simulation& sim) {
@@ -235,7 +242,7 @@ bool MetricsRecorder::maybeSample(Simulation& sim) {
 
 void MetricsRecorder::finish(Simulation& sim) {
     if (rows_.empty()) scheduleColumns_ = sim.scheduleColumns();
-    if (rows_.empty() || rows_.back().time != sim.time()) rows_.push_back(measureMetrics(sim, h_));
+    if (rows_.empty() || rows_.back().time != sim.time()) rows_.push_back(measure(sim));
 }
 
 MetricsPeaks MetricsRecorder::peaks() const {
@@ -601,6 +608,7 @@ std::string summaryJson(const Simulation& sim, const RunInfo& info, const Metric
              ", \"density_dangerous\": " + jsonNumber(t.densityDangerous) +
              ", \"density_critical\": " + jsonNumber(t.densityCritical) +
              ", \"crowd_pressure\": " + jsonNumber(t.crowdPressureCritical) +
+             ", \"pressure_window\": " + jsonNumber(t.pressureWindow) +
              ", \"min_duration\": " + jsonNumber(t.minDuration) +
              ", \"dose_dangerous_fraction\": " + jsonNumber(t.doseDangerousFraction) + "},\n";
     }

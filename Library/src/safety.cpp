@@ -35,6 +35,9 @@ const ParamTable& safetyTable() {
             ParamSpec::real("crowd_pressure", "1/s2", d.crowdPressureCritical, 0, 1e6,
                             "crowd pressure above which (where the density is above density_caution) the verdict says "
                             "dangerous (Helbing et al. 2007: crowd turbulence)"),
+            ParamSpec::real("pressure_window", "s", d.pressureWindow, 0, 1e4,
+                            "time constant of the time averages at each place in the crowd pressure "
+                            "(density x variance in time of the local velocity)"),
             ParamSpec::real("min_duration", "s", d.minDuration, 0, 1e6,
                             "seconds a density or pressure condition must hold, anywhere, to count"),
             ParamSpec::real("dose_dangerous_fraction", "-", d.doseDangerousFraction, 0, 1,
@@ -52,12 +55,6 @@ const ParamTable& safetyTable() {
 double CrowdField::maxDensity() const {
     double m = 0;
     for (double d : density) m = std::max(m, d);
-    return m;
-}
-
-double CrowdField::maxPressure() const {
-    double m = 0;
-    for (double p : pressure) m = std::max(m, p);
     return m;
 }
 
@@ -79,7 +76,8 @@ CrowdField crowdField(const AgentStore& agents, double cellSize, double R) {
     f.ny = cellIndex(ymax, cellSize) + 2 - f.iy0;
     const std::size_t cells = static_cast<std::size_t>(f.nx) * static_cast<std::size_t>(f.ny);
     f.density.assign(cells, 0.0);
-    f.pressure.assign(cells, 0.0);
+    f.velocity.assign(cells, Vec2(0, 0));
+    f.weighted.assign(cells, 0);
     f.people.assign(cells, 0);
     for (const Vec2& p : agents.pos) {
         const int ix = cellIndex(p.x(), cellSize) - f.ix0, iy = cellIndex(p.y(), cellSize) - f.iy0;
@@ -94,23 +92,17 @@ CrowdField crowdField(const AgentStore& agents, double cellSize, double R) {
     for (long k = 0; k < count; ++k) {
         const int iy = static_cast<int>(k / f.nx), ix = static_cast<int>(k % f.nx);
         const Vec2 c = f.centre(ix + f.ix0, iy + f.iy0);
-        // One pass: Σw, Σw·v and Σw·|v|²; the weighted variance is Σw|v|²/Σw − |mean|²
-        // (clamped at 0 against rounding), so each weight is evaluated once.
-        double sw = 0, swv2 = 0;
+        double sw = 0;
         Vec2 swv(0, 0);
         grid.forEachWithin(c, reach, [&](int j, const Vec2&, double d2) {
             const double w = std::exp(-d2 * invR2);
-            const Vec2& v = agents.vel[static_cast<std::size_t>(j)];
             sw += w;
-            swv += w * v;
-            swv2 += w * v.squaredNorm();
+            swv += w * agents.vel[static_cast<std::size_t>(j)];
         });
         if (!(sw > 0)) continue;
-        const Vec2 mean = swv / sw;
-        const double variance = std::max(0.0, swv2 / sw - mean.squaredNorm());
-        const double rho = norm * sw;
-        f.density[static_cast<std::size_t>(k)] = rho;
-        f.pressure[static_cast<std::size_t>(k)] = rho * variance;
+        f.density[static_cast<std::size_t>(k)] = norm * sw;
+        f.velocity[static_cast<std::size_t>(k)] = swv / sw;
+        f.weighted[static_cast<std::size_t>(k)] = 1;
     }
     return f;
 }
@@ -122,13 +114,19 @@ int verdictRank(const std::string& level) {
     return 0;
 }
 
-void SafetyRecorder::record(const Simulation& sim) {
-    const double t = sim.time();
+void SafetyRecorder::record(const Simulation& sim) { recordAt(sim.agents(), sim.time(), &sim.health()); }
+
+void SafetyRecorder::recordCrowd(const AgentStore& agents, double t) { recordAt(agents, t, nullptr); }
+
+void SafetyRecorder::recordAt(const AgentStore& a, double t, const HealthLayer* health) {
     const double dt = lastTime_ == lastTime_ ? t - lastTime_ : 0.0;
     if (lastTime_ == lastTime_ && !(dt > 0)) return;  // already recorded at this time
+    const double previous = lastTime_;  // NaN at the first record
     lastTime_ = t;
-    const AgentStore& a = sim.agents();
     const CrowdField f = crowdField(a, t_.cellSize, t_.gaussianRadius);
+    // Weight of this sample in the time averages of the crowd pressure (1 = the first sample).
+    const double alpha = std::min(1.0, dt / t_.pressureWindow);
+    maxPressure_ = 0;
     const double levels[3] = {t_.densityCaution, t_.densityDangerous, t_.densityCritical};
     bool held[kConditions] = {false, false, false, false, false};
     std::size_t people[kConditions] = {0, 0, 0, 0, 0};
@@ -143,20 +141,36 @@ void SafetyRecorder::record(const Simulation& sim) {
                     held[l] = true;
                     people[l] += static_cast<std::size_t>(f.people[k]);
                 }
+            // Crowd pressure: the variance in time of the local velocity at this place, times
+            // the local density (both averaged over the window). A cell with no agent within
+            // reach has no local velocity; its averages restart when agents come back.
+            double pressure = 0;
+            if (f.weighted[k]) {
+                const Vec2& v = f.velocity[k];
+                const bool continues = cell.sampledAt == previous && dt > 0;
+                const double w = continues ? alpha : 1.0;
+                cell.meanDensity += w * (f.density[k] - cell.meanDensity);
+                cell.meanVelocity += w * (v - cell.meanVelocity);
+                cell.meanSquaredSpeed += w * (v.squaredNorm() - cell.meanSquaredSpeed);
+                cell.sampledAt = t;
+                pressure = cell.meanDensity * std::max(0.0, cell.meanSquaredSpeed - cell.meanVelocity.squaredNorm());
+                maxPressure_ = std::max(maxPressure_, pressure);
+            }
             // Crowd turbulence is a dense-crowd phenomenon (Helbing et al. 2007 observed it at
-            // high densities). In sparse or crossing flows the instantaneous velocity variance
-            // only says that people walk in different directions, so pressure counts only where
-            // the density is above Fruin's level F as well.
-            if (f.pressure[k] > t_.crowdPressureCritical && f.density[k] > t_.densityCaution) {
+            // 7–9 persons/m²). Where people merely pass the same place in different directions at
+            // low density (crossings, counter-flows), the local velocity also varies in time, so
+            // the pressure counts only where the density is above Fruin's level F as well
+            // (docs/crowd-health.md shows a sparse crossing that needs this gate).
+            if (pressure > t_.crowdPressureCritical && cell.meanDensity > t_.densityCaution) {
                 cell.seconds[Pressure] += dt;
                 held[Pressure] = true;
                 people[Pressure] += static_cast<std::size_t>(f.people[k]);
             }
         }
     // Contact per cell, and crush from each agent's last force against its own threshold.
-    const HealthLayer& h = sim.health();
     std::map<std::pair<int, int>, bool> crushCells;
-    for (std::size_t i = 0; i < a.size(); ++i) {
+    for (std::size_t i = 0; i < a.size() && health != nullptr; ++i) {
+        const HealthLayer& h = *health;
         const std::pair<int, int> key{cellIndex(a.pos[i].y(), t_.cellSize), cellIndex(a.pos[i].x(), t_.cellSize)};
         Cell& cell = cells_[key];
         cell.maxContact = std::max(cell.maxContact, a.contactAccel[i].norm());

@@ -37,6 +37,7 @@
 namespace ch {
 
 struct Verdict;  // crowdhealth/safety.h
+class SafetyRecorder;  // crowdhealth/safety.h
 
 /// A file could not be created, written or renamed.
 class OutputError : public std::runtime_error {
@@ -129,8 +130,9 @@ struct MetricsRow {
     double maxWallPenetration = 0;                      ///< m
     double meanPanic = 0;        ///< 0..1, mean over the active agents (CrowdHealth layer)
     std::size_t injured = 0;     ///< agents injured so far, in the world or not (CrowdHealth layer)
-    /// Helbing, Johansson & Al-Abideen 2007 "crowd pressure" ρ·Var(v) (1/s²): the largest value
-    /// over the cells of crowdField() (crowdhealth/safety.h: Gaussian R = 0.7 m, 1 m cells).
+    /// Helbing, Johansson & Al-Abideen 2007 "crowd pressure" ρ·Var_t(V) (1/s²): the largest value
+    /// over the cells of the SafetyRecorder given to MetricsRecorder::setCrowdPressure
+    /// (crowdhealth/safety.h); NaN (an empty cell) without one, since it is a time average.
     double crowdPressure = 0;
     /// Current values of the ramped parameters (Simulation::scheduleColumns()), after the fixed columns.
     std::vector<double> schedule;
@@ -165,6 +167,9 @@ public:
     bool maybeSample(Simulation& sim);
     /// Adds the row of the final time if the last row is not at sim.time().
     void finish(Simulation& sim);
+    /// Takes the crowd_pressure column from `recorder` (its value at its last record(), so record
+    /// there before sampling here). Without one the column is empty.
+    void setCrowdPressure(const SafetyRecorder* recorder) { pressure_ = recorder; }
 
     const std::vector<MetricsRow>& rows() const { return rows_; }
     MetricsPeaks peaks() const;
@@ -176,6 +181,8 @@ public:
 private:
     SampleClock clock_;
     double h_;
+    const SafetyRecorder* pressure_ = nullptr;
+    MetricsRow measure(Simulation& sim) const;
     std::vector<std::string> scheduleColumns_;  ///< taken from the simulation at the first sample
     std::vector<MetricsRow> rows_;
 };

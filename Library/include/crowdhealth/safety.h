@@ -1,13 +1,18 @@
 // CrowdHealth — crowd-level safety measures on a grid, the heat map and the safety verdict
 // (DESIGN §5–6, docs/crowd-health.md).
 //
-// Local density and crowd pressure after Helbing, Johansson & Al-Abideen 2007 (Phys. Rev. E 75,
-// 046109): at a point r, with Gaussian weights f(d) = exp(−|d|²/R²)/(πR²),
-//     ρ(r) = Σ_j f(x_j − r)                              (persons/m²)
-//     U(r) = Σ_j f v_j / Σ_j f,  Var(r) = Σ_j f |v_j − U(r)|² / Σ_j f
-//     P(r) = ρ(r) · Var(r)                               (1/s²)
-// evaluated at the centres of square cells (SafetyThresholds::cellSize, 1 m by default) with
-// instantaneous velocities. Agents only: walls and wall particles do not count.
+// Local density and crowd pressure after Helbing, Johansson & Al-Abideen 2007 ("Dynamics of crowd
+// disasters: an empirical study", Phys. Rev. E 75, 046109): at a point r, with Gaussian weights
+// f(d) = exp(−|d|²/R²)/(πR²),
+//     ρ(r,t) = Σ_j f(x_j − r)                            (persons/m²)
+//     V(r,t) = Σ_j f v_j / Σ_j f                         local velocity (m/s)
+//     P(r)   = ρ(r) · ⟨|V(r,t) − U(r)|²⟩_t               crowd pressure (1/s²)
+// where U(r) = ⟨V(r,t)⟩_t is the time-averaged local velocity and ⟨·⟩_t an average over a time
+// window at the same place: the pressure is the local density times the variance *in time* of the
+// local velocity, which is what grows in stop-and-go waves and crowd turbulence. Here ⟨·⟩_t is an
+// exponential moving average with time constant SafetyThresholds::pressureWindow, updated every
+// coarse step; ρ(r) is averaged the same way. Evaluated at the centres of square cells
+// (SafetyThresholds::cellSize, 1 m by default). Agents only: walls and wall particles do not count.
 #pragma once
 
 #include "crowdhealth/simulation.h"
@@ -29,14 +34,16 @@ struct CrowdField {
     double cellSize = 1;
     int ix0 = 0, iy0 = 0, nx = 0, ny = 0;  ///< cell (ix, iy) spans [ix·c, (ix+1)·c) × [iy·c, (iy+1)·c)
     std::vector<double> density;   ///< persons/m² at each cell centre, row-major (y outer)
-    std::vector<double> pressure;  ///< 1/s²
+    /// Local velocity V(r,t) at each cell centre (m/s); unset where `weighted` is 0.
+    std::vector<Vec2> velocity;
+    /// 1 where some agent lies within reach of the centre (the local velocity is defined), else 0.
+    std::vector<unsigned char> weighted;
     std::vector<int> people;       ///< agents whose centre lies in the cell
     double maxDensity() const;
-    double maxPressure() const;
     Vec2 centre(int ix, int iy) const { return Vec2((ix + 0.5) * cellSize, (iy + 0.5) * cellSize); }
 };
 
-/// Evaluates the Helbing et al. 2007 local density and crowd pressure on the grid.
+/// Evaluates the Helbing et al. 2007 local density and local velocity on the grid (one instant).
 CrowdField crowdField(const AgentStore& agents, double cellSize = 1.0, double gaussianRadius = 0.7);
 
 /// One reason of the verdict.
@@ -68,7 +75,14 @@ public:
     explicit SafetyRecorder(SafetyThresholds t = {}) : t_(t) {}
 
     void record(const Simulation& sim);
+    /// The crowd measures alone (density, crowd pressure; no contact or crush) from agents at
+    /// time t (s), for states that do not come from a Simulation (tests, replayed trajectories).
+    /// Times must rise; a second call at the same time is ignored, as in record().
+    void recordCrowd(const AgentStore& agents, double t);
     const SafetyThresholds& thresholds() const { return t_; }
+    /// The largest crowd pressure P(r) over the cells at the last record() (1/s², 0 before any):
+    /// the `crowd_pressure` column of metrics.csv. Not gated by density (the verdict is).
+    double maxPressure() const { return maxPressure_; }
 
     /// heatmap.csv: header `x,y,max_density,max_contact_accel,seconds_above_density_threshold,
     /// seconds_above_crush_threshold`; one row per cell of the rectangle covering every cell ever
@@ -85,6 +99,12 @@ private:
     struct Cell {
         double maxDensity = 0, maxContact = 0;
         double seconds[kConditions] = {0, 0, 0, 0, 0};
+        // Time averages at this place for the crowd pressure (exponential, SafetyThresholds::
+        // pressureWindow): density, local velocity and its squared length. `sampledAt` is the
+        // time of the last sample; a cell that missed a record (no agent within reach) restarts.
+        double meanDensity = 0, meanSquaredSpeed = 0;
+        Vec2 meanVelocity{0, 0};
+        double sampledAt = std::numeric_limits<double>::quiet_NaN();
     };
     struct Timeline {
         double firstTime = std::numeric_limits<double>::quiet_NaN();
@@ -95,7 +115,9 @@ private:
     std::map<std::pair<int, int>, Cell> cells_;  ///< key (iy, ix): y outer, x inner
     Timeline timeline_[kConditions];
     double lastTime_ = std::numeric_limits<double>::quiet_NaN();
+    double maxPressure_ = 0;
 
+    void recordAt(const AgentStore& agents, double t, const HealthLayer* health);
     VerdictReason cellReason(Condition c, const std::string& level, const std::string& measure, double threshold,
                              const std::string& unit, const std::string& what) const;
 };
