@@ -139,3 +139,30 @@ BOOST_AUTO_TEST_CASE(help_and_version_exit_0) {
     BOOST_TEST(v.status == 0);
     BOOST_TEST(v.out.rfind("crowdhealth ", 0) == 0u);
 }
+
+BOOST_AUTO_TEST_CASE(files_that_are_not_xml_text_exit_2_with_a_plain_message) {
+    const fs::path dir = freshDir(caseName());
+    const std::pair<std::string, std::string> files[] = {
+        {"empty.xml", ""},
+        {"utf16.xml", std::string("\xFF\xFE<\0S\0", 6)},
+        {"binary.xml", std::string("\x7F" "ELF\x02\x01\x01\0\0\0", 10)},
+    };
+    const std::string messages[] = {"the file is empty", "UTF-16 is not supported: save it as UTF-8",
+                                    "not a text file"};
+    for (std::size_t k = 0; k < 3; ++k) {
+        BOOST_TEST_CONTEXT(files[k].first) {
+            {
+                std::ofstream out(dir / files[k].first, std::ios::binary);
+                out << files[k].second;
+            }
+            for (const bool check : {true, false}) {
+                std::vector<std::string> args = {"-i", files[k].first, "-o", "out"};
+                if (check) args.insert(args.begin(), "--check");
+                const Result r = run(dir, args);
+                BOOST_TEST(r.status == 2);
+                BOOST_TEST(r.err.find(files[k].first + ":1: error: " + messages[k]) != std::string::npos, r.err);
+                BOOST_TEST(!fs::exists(dir / "out"));
+            }
+        }
+    }
+}
