@@ -428,7 +428,15 @@ BOOST_AUTO_TEST_CASE(run_and_replications_with_plot) {
     BOOST_REQUIRE_EQUAL(r.status, 0);
     BOOST_TEST(fs::exists(dir / "single" / "fig3.png"));
     BOOST_TEST(fs::exists(dir / "single" / "health.png"));
-    BOOST_TEST(fs::exists(dir / "single" / "heatmap.png") == fs::exists(dir / "single" / "heatmap.csv"));
+    // A run always writes heatmap.csv, so --plot must draw heatmap.png (a check of the form
+    // exists(png) == exists(csv) would also pass when neither was written).
+    BOOST_TEST(fs::exists(dir / "single" / "heatmap.csv"));
+    BOOST_TEST(fs::exists(dir / "single" / "heatmap.png"));
+    if (fs::exists(dir / "single" / "heatmap.png")) {
+        const Image heat = decodePng(dir / "single" / "heatmap.png");
+        BOOST_TEST(heat.width == 1700u);
+        BOOST_TEST(heat.distinctColours() > 20u);  // a map, not a blank page
+    }
 
     r = run(dir, {"-i", testData("doorway-small.xml"), "-o", "reps", "--replications", "2", "--plot", "--end-time", "20"});
     BOOST_TEST_INFO("stderr: " << r.err);
