@@ -290,6 +290,40 @@ BOOST_AUTO_TEST_CASE(injury_lowers_speed) {
     BOOST_TEST(sim.health().injuredCount() == 0u);  // default thresholds: 4500 N, 135 kN s
 }
 
+BOOST_AUTO_TEST_CASE(injury_slows_the_agents_actual_motion) {
+    // The two agents of collision() push past each other (they are 5 cm off axis); agent 0 is
+    // injured in the contact and then walks on alone to (16, 0). Its speed once clear of the
+    // other is the injured preferred speed (0.5 x 1.4), capped by the injured maximum, not
+    // 1.4: the layer changes how the agent moves, not only the numbers it records.
+    auto speedsAfter = [](bool effect) {
+        ScenarioSpec s = collision({{"crushThreshold", 0.0}, {"injuryDose", 1.0}, {"injuredSpeedFactor", 0.5},
+                                    {"injuredMaxSpeedFactor", 0.6}, {"injuryEffect", effect ? 1.0 : 0.0}});
+        s.agents[0].goal = Vec2(16, 0);
+        s.endTime = 10;
+        Simulation sim(s);
+        std::vector<double> speeds;  // agent 0's speed, once it is clear of agent 1 and injured
+        while (!sim.finished()) {
+            sim.stepCoarse();
+            const AgentStore& a = sim.agents();
+            std::size_t i0 = a.size(), i1 = a.size();
+            for (std::size_t i = 0; i < a.size(); ++i) (a.id[i] == 0 ? i0 : i1) = i;
+            BOOST_REQUIRE(i0 < a.size());
+            const bool clear = i1 == a.size() || (a.pos[i0] - a.pos[i1]).norm() > 3.0;
+            if (clear && recordOfId(sim, 0).injured() && a.pos[i0].x() < 14) speeds.push_back(a.vel[i0].norm());
+        }
+        return speeds;
+    };
+    const std::vector<double> hurt = speedsAfter(true);
+    const std::vector<double> unaffected = speedsAfter(false);
+    BOOST_REQUIRE(hurt.size() > 50u);       // it was injured and walked on for over a second
+    BOOST_REQUIRE(unaffected.size() > 50u);
+    // After the relaxation (tau = 0.5 s) towards the injured preferred speed: the last second.
+    for (std::size_t k = hurt.size() - 50; k < hurt.size(); ++k) BOOST_TEST(std::abs(hurt[k] - 0.7) < 0.02, hurt[k]);
+    for (double v : hurt) BOOST_TEST(v <= 0.6 * 1.8 + 1e-12);  // never above the injured maximum speed
+    for (std::size_t k = unaffected.size() - 50; k < unaffected.size(); ++k)
+        BOOST_TEST(std::abs(unaffected[k] - 1.4) < 0.02, unaffected[k]);
+}
+
 BOOST_AUTO_TEST_CASE(layer_is_thread_count_independent) {
     auto run = [](int threads) {
         std::vector<AgentSpec> agents;
