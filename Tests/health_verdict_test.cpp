@@ -144,6 +144,90 @@ BOOST_AUTO_TEST_CASE(crowd_pressure_counts_only_in_dense_crowds) {
     BOOST_TEST(crowdVerdict(r).level == "safe");
 }
 
+BOOST_AUTO_TEST_CASE(each_density_level_starts_at_its_threshold) {
+    // Standing lattices whose interior density lies between two levels, held 3 s: the verdict is
+    // the level below each density (the defaults: 2.17 caution, 4 dangerous, 6 critical). A level
+    // tested at twice or half its threshold would move one of these.
+    const struct { double density; const char* level; } cases[] = {
+        {1.8, "safe"}, {3.0, "caution"}, {5.0, "dangerous"}, {7.0, "critical"}};
+    for (const auto& c : cases) {
+        BOOST_TEST_CONTEXT("density " << c.density) {
+            AgentStore a = lattice(1.0 / std::sqrt(c.density));
+            SafetyRecorder r{SafetyThresholds{}};
+            feed(r, a, 0.0, 3.0, [](std::size_t, int) { return Vec2(0, 0); });
+            const Verdict v = crowdVerdict(r);
+            BOOST_TEST(v.level == c.level);
+            if (v.level != std::string("safe")) {
+                BOOST_REQUIRE(!v.reasons.empty());
+                BOOST_TEST(v.reasons.front().measure == "density");
+                BOOST_TEST(std::abs(v.reasons.front().duration - 2.9) < 1e-9);  // 29 records after the first
+            }
+        }
+    }
+}
+
+BOOST_AUTO_TEST_CASE(a_condition_counts_once_it_held_the_minimum_duration) {
+    // Density 5 (dangerous) for 0.7 s is no reason; for 1.4 s it is (min_duration 1 s).
+    AgentStore a = lattice(1.0 / std::sqrt(5.0));
+    SafetyRecorder brief{SafetyThresholds{}}, held{SafetyThresholds{}};
+    feed(brief, a, 0.0, 0.8, [](std::size_t, int) { return Vec2(0, 0); });
+    feed(held, a, 0.0, 1.5, [](std::size_t, int) { return Vec2(0, 0); });
+    BOOST_TEST(crowdVerdict(brief).level == "safe");
+    BOOST_TEST(crowdVerdict(held).level == "dangerous");
+}
+
+BOOST_AUTO_TEST_CASE(crowd_pressure_counts_above_its_threshold_only) {
+    // A block at 4 persons/m^2 surging back and forth at +-a m/s: P tends to rho * a^2. At 1.5x
+    // the default 0.02 /s^2 it is a reason, at 0.65x it is not.
+    AgentStore a = lattice(0.5);
+    auto pressureReason = [&](double target) {
+        const double amplitude = std::sqrt(target / 4.0);
+        SafetyRecorder r{SafetyThresholds{}};
+        feed(r, a, 0.0, 40.0, [&](std::size_t, int k) { return Vec2(k % 2 ? amplitude : -amplitude, 0.0); });
+        BOOST_TEST(std::abs(r.maxPressure() - target) < 0.1 * target, "pressure " << r.maxPressure());
+        for (const VerdictReason& reason : crowdVerdict(r).reasons)
+            if (reason.measure == "crowd_pressure") return true;
+        return false;
+    };
+    BOOST_TEST(pressureReason(1.5 * 0.02));
+    BOOST_TEST(!pressureReason(0.65 * 0.02));
+}
+
+BOOST_AUTO_TEST_CASE(crush_dose_is_dangerous_from_half_the_injury_dose) {
+    // Two agents pushing into each other (crush threshold 10 N, so every contact adds dose). The
+    // verdict is 'dangerous' (crush_dose) when the larger dose reaches half the injury dose
+    // (dose_dangerous_fraction 0.5), 'caution' (crush_force) below that.
+    auto runWith = [](double injuryDose) {
+        std::vector<AgentSpec> agents = {agent(0, {0, 0}, {6, 0}, 0.3), agent(1, {1.5, 0}, {-5, 0}, 0.3)};
+        PolicySpec p = policy(0, OptimisationMethod::Gradient,
+                              {component("GoalReachingForce", {{"range", 0.0}}), component("ContactForces", {{"range", 1.0}})},
+                              0.5, {}, StepTiming::Fine, 0.0);
+        CrowdHealthSpec h;
+        h.params = ParamSet(crowdHealthTable());
+        h.params.set("crushThreshold", 10.0);
+        h.params.set("injuryDose", injuryDose);
+        p.health = h;
+        ScenarioSpec s = scenario(agents, {p}, 0.1, 4);
+        s.deltaTimeFine = 0.02;
+        return std::make_unique<VerdictRun>(s);
+    };
+    double dose = 0;
+    {
+        const auto probe = runWith(1e12);
+        for (const HealthRecord& r : probe->sim.health().records()) dose = std::max(dose, r.dose);
+        BOOST_TEST(probe->verdict.level == "caution");
+    }
+    BOOST_REQUIRE(dose > 0);
+    const auto over = runWith(dose / 0.7);   // 70 % of the injury dose
+    const auto under = runWith(dose / 0.4);  // 40 %
+    BOOST_TEST(over->verdict.level == "dangerous");
+    BOOST_REQUIRE(!over->verdict.reasons.empty());
+    BOOST_TEST(over->verdict.reasons.front().measure == "crush_dose");
+    BOOST_TEST(under->verdict.level == "caution");
+    BOOST_REQUIRE(!under->verdict.reasons.empty());
+    BOOST_TEST(under->verdict.reasons.front().measure == "crush_force");
+}
+
 BOOST_AUTO_TEST_CASE(sparse_free_walking_is_safe) {
     std::vector<AgentSpec> agents;
     for (int k = 0; k < 12; ++k) agents.push_back(agent(k, {0, 3.0 * k}, {60, 3.0 * k}, 0.25, 1.3, 1.6));
