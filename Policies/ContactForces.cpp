@@ -14,7 +14,7 @@ ComponentInfo ContactForces::Info() {
     info.kind = ComponentKind::Force;
     info.defaultRange = 0.0;
     info.modelsContact = true;
-    info.summary = "linear contact springs between overlapping agents and between agents and walls (inside the a_max clamp)";
+    info.summary = "linear contact springs between overlapping agents and between agents and walls (inside the a_max clamp); its policy gets no implicit UMANS ContactForceScale";
     info.reference = "van Toll et al. 2021, SPH crowds, Computers & Graphics 98 (contact forces); CrowdHealth paper eq. 1";
     info.params = {
         ParamSpec::real("agentStiffness", "1/s2", 50.0, 0.0, 1e7, "K_ag: acceleration per metre of overlap between two agents"),
