@@ -82,8 +82,8 @@ BOOST_AUTO_TEST_CASE(grid_density_and_local_velocity_follow_helbing_2007) {
     AgentStore a = lattice(0.5);
     for (Vec2& v : a.vel) v = Vec2(1.0, 0.0);
     CrowdField f = crowdField(a, 1.0, 0.7);
-    const int ix = 5 - f.ix0, iy = 5 - f.iy0;  // the cell [5, 6) x [5, 6), centre (5.5, 5.5)
-    const std::size_t mid = static_cast<std::size_t>(iy * f.nx + ix);
+    const std::size_t mid = f.find(5, 5);  // the cell [5, 6) x [5, 6), centre (5.5, 5.5)
+    BOOST_REQUIRE(mid < f.size());
     BOOST_TEST(std::abs(f.density[mid] - 4.0) < 0.05, "density " << f.density[mid]);
     BOOST_TEST((f.velocity[mid] - Vec2(1.0, 0.0)).norm() < 1e-12);
     BOOST_TEST(f.people[mid] == 4);

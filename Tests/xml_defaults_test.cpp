@@ -6,9 +6,11 @@
 
 #include "test_support.h"
 
+#include "crowdhealth/safety.h"
 #include "crowdhealth/simulation.h"
 #include "crowdhealth/xml.h"
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -243,4 +245,50 @@ BOOST_AUTO_TEST_CASE(a_file_that_includes_itself_is_named_as_such) {
     BOOST_TEST(outer.has((dir / "policies.xml").string() +
                          ":1: error: Policies@file: a file named by file= cannot name another file"),
                outer.text);
+}
+
+BOOST_AUTO_TEST_CASE(runs_beyond_the_machine_are_refused_or_warned_before_simulating) {
+    const fs::path dir = freshDir("limits");
+    const std::string policy =
+        "<Policies><Policy id=\"0\" OptimizationMethod=\"gradient\"><costfunction name=\"GoalReachingForce\"/>"
+        "</Policy></Policies>\n";
+    // Two agents 1e15 m apart: the grids could not cover that; refused at the agent's line.
+    write(dir / "far.xml", "<Simulation delta_time=\"0.1\" end_time=\"1\"><World type=\"Infinite\"/>\n" + policy +
+                               "<Agents><Agent id=\"0\"><pos x=\"0\" y=\"0\"/><goal x=\"1\" y=\"0\"/><Policy id=\"0\"/></Agent>\n"
+                               "<Agent id=\"1\"><pos x=\"1e15\" y=\"1e15\"/><goal x=\"1\" y=\"0\"/><Policy id=\"0\"/></Agent>\n"
+                               "</Agents></Simulation>\n");
+    const Load far(dir / "far.xml");
+    BOOST_TEST(!far.spec.has_value());
+    BOOST_TEST(far.has((dir / "far.xml").string() + ":4: error: agent 1 starts at (1e+15, 1e+15) m: coordinates "
+                                                     "must lie within ±1e+06 m"),
+               far.text);
+    // 1e10 fine steps: a warning with the numbers, before anything runs.
+    write(dir / "tiny.xml", "<Simulation delta_time=\"1e-9\" end_time=\"10\"><World type=\"Infinite\"/>\n" + policy +
+                                "<Agents><Agent id=\"0\"><pos x=\"0\" y=\"0\"/><goal x=\"1\" y=\"0\"/><Policy id=\"0\"/></Agent>"
+                                "</Agents></Simulation>\n");
+    const Load tiny(dir / "tiny.xml");
+    BOOST_TEST(tiny.spec.has_value());
+    BOOST_TEST(tiny.has((dir / "tiny.xml").string() + ":1: warning: end_time 10 s in fine steps of 1e-09 s is 1e+10 steps"),
+               tiny.text);
+    // Agents far apart but within the limit run, and their safety grid stays small: only the
+    // cells around each agent are evaluated, not the 9e5 x 9e5 m rectangle between them.
+    write(dir / "apart.xml", "<Simulation delta_time=\"0.1\" end_time=\"1\"><World type=\"Infinite\"/>\n" + policy +
+                                 "<Agents><Agent id=\"0\"><pos x=\"0\" y=\"0\"/><goal x=\"1\" y=\"0\"/><Policy id=\"0\"/></Agent>"
+                                 "<Agent id=\"1\"><pos x=\"9e5\" y=\"-9e5\"/><goal x=\"9e5\" y=\"-9e5\"/><Policy id=\"0\"/></Agent>"
+                                 "</Agents></Simulation>\n");
+    const Load apart(dir / "apart.xml");
+    BOOST_REQUIRE(apart.spec.has_value());
+    Simulation sim(*apart.spec);
+    SafetyRecorder safety(apart.spec->safety);
+    safety.record(sim);
+    while (!sim.finished()) {
+        sim.stepCoarse();
+        safety.record(sim);
+    }
+    const CrowdField f = crowdField(sim.agents(), 1.0, 0.7);
+    BOOST_TEST(f.size() <= 2u * 49u);  // (2·3 + 1)² cells around each agent
+    const std::string heat = safety.heatmapCsv();
+    BOOST_TEST(std::count(heat.begin(), heat.end(), '\n') < 500);
+    BOOST_TEST(f.find(0, 0) < f.size());
+    BOOST_TEST(f.density[f.find(0, 0)] > 0.1);
 }

@@ -10,6 +10,26 @@ namespace {
 // Cap on the number of cells: beyond it the cell size grows (sparse, far-flung agents such as
 // UMANS' goals at x = 50 km would otherwise ask for millions of empty cells).
 constexpr long long kMaxCells = 1 << 22;
+
+/// The cells of side `cell` (doubled until there are at most kMaxCells) covering [lo, hi]. The
+/// counts are computed in floating point first: over a huge extent (a point 1e15 m away) the
+/// number of cells does not fit an int, and casting it would be undefined.
+void cellsCovering(const Vec2& lo, const Vec2& hi, double& cell, int& nx, int& ny) {
+    for (;;) {
+        const double fx = std::floor((hi.x() - lo.x()) / cell) + 1;
+        const double fy = std::floor((hi.y() - lo.y()) / cell) + 1;
+        if (!(fx * fy < kInf) || !(cell < kInf)) {  // NaN or infinite extent: one cell
+            nx = ny = 1;
+            return;
+        }
+        if (fx * fy <= static_cast<double>(kMaxCells)) {
+            nx = static_cast<int>(fx);
+            ny = static_cast<int>(fy);
+            return;
+        }
+        cell *= 2;
+    }
+}
 }  // namespace
 
 void PointGrid::build(const std::vector<Vec2>& points, double cellSize, bool periodic, double width,
@@ -36,12 +56,7 @@ void PointGrid::build(const std::vector<Vec2>& points, double cellSize, bool per
             }
         }
         cw_ = cell;
-        for (;;) {
-            nx_ = static_cast<int>(std::floor((hi.x() - lo.x()) / cw_)) + 1;
-            ny_ = static_cast<int>(std::floor((hi.y() - lo.y()) / cw_)) + 1;
-            if (static_cast<long long>(nx_) * ny_ <= kMaxCells) break;
-            cw_ *= 2;
-        }
+        cellsCovering(lo, hi, cw_, nx_, ny_);
         ch_ = cw_;
         origin_ = lo;
     }
@@ -112,12 +127,7 @@ void SegmentGrid::build(const std::vector<Segment>& segments, double cellSize) {
         lo = lo.cwiseMin(s.a).cwiseMin(s.b);
         hi = hi.cwiseMax(s.a).cwiseMax(s.b);
     }
-    for (;;) {
-        nx_ = static_cast<int>(std::floor((hi.x() - lo.x()) / cell_)) + 1;
-        ny_ = static_cast<int>(std::floor((hi.y() - lo.y()) / cell_)) + 1;
-        if (static_cast<long long>(nx_) * ny_ <= kMaxCells) break;
-        cell_ *= 2;
-    }
+    cellsCovering(lo, hi, cell_, nx_, ny_);
     origin_ = lo;
     // Register each segment in every cell its bounding box touches (conservative), stored as one
     // array with per-cell offsets (two passes: count, then fill in segment order).

@@ -58,11 +58,24 @@ double CrowdField::maxDensity() const {
     return m;
 }
 
+std::size_t CrowdField::find(int x, int y) const {
+    const std::uint64_t key = cellKey(x, y);
+    const auto it = std::lower_bound(keys_.begin(), keys_.end(), key);
+    return it != keys_.end() && *it == key ? static_cast<std::size_t>(it - keys_.begin()) : size();
+}
+
+std::uint64_t CrowdField::cellKey(int x, int y) {
+    // y outer, x inner, both shifted to unsigned so that the keys sort as (y, x).
+    return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(y) ^ 0x80000000u) << 32) |
+           static_cast<std::uint64_t>(static_cast<std::uint32_t>(x) ^ 0x80000000u);
+}
+
 CrowdField crowdField(const AgentStore& agents, double cellSize, double R) {
     CrowdField f;
     f.cellSize = cellSize;
     const std::size_t n = agents.size();
     if (n == 0) return f;
+    const double reach = 3.0 * R;  // the weight is below e^-9 beyond
     double xmin = agents.pos[0].x(), xmax = xmin, ymin = agents.pos[0].y(), ymax = ymin;
     for (const Vec2& p : agents.pos) {
         xmin = std::min(xmin, p.x());
@@ -70,39 +83,68 @@ CrowdField crowdField(const AgentStore& agents, double cellSize, double R) {
         ymin = std::min(ymin, p.y());
         ymax = std::max(ymax, p.y());
     }
-    f.ix0 = cellIndex(xmin, cellSize) - 1;
-    f.iy0 = cellIndex(ymin, cellSize) - 1;
-    f.nx = cellIndex(xmax, cellSize) + 2 - f.ix0;
-    f.ny = cellIndex(ymax, cellSize) + 2 - f.iy0;
-    const std::size_t cells = static_cast<std::size_t>(f.nx) * static_cast<std::size_t>(f.ny);
+    // The cells: every cell of the rectangle covering the agents (one cell of margin) while that
+    // is at most kMaxDenseCells; for a crowd scattered far apart, only the cells within reach of
+    // an agent (the others have no agent within reach: density 0, no local velocity).
+    constexpr double kMaxDenseCells = 1 << 22;
+    const double spanX = std::floor(xmax / cellSize) - std::floor(xmin / cellSize) + 3;
+    const double spanY = std::floor(ymax / cellSize) - std::floor(ymin / cellSize) + 3;
+    if (spanX * spanY <= kMaxDenseCells) {
+        const int ix0 = cellIndex(xmin, cellSize) - 1, iy0 = cellIndex(ymin, cellSize) - 1;
+        const int nx = static_cast<int>(spanX), ny = static_cast<int>(spanY);
+        f.ix.reserve(static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny));
+        f.iy.reserve(f.ix.capacity());
+        for (int y = 0; y < ny; ++y)
+            for (int x = 0; x < nx; ++x) {
+                f.ix.push_back(ix0 + x);
+                f.iy.push_back(iy0 + y);
+            }
+    } else {
+        const int k = static_cast<int>(std::ceil(reach / cellSize));
+        std::vector<std::uint64_t> keys;
+        keys.reserve(n * static_cast<std::size_t>((2 * k + 1) * (2 * k + 1)));
+        for (const Vec2& p : agents.pos) {
+            const int cx = cellIndex(p.x(), cellSize), cy = cellIndex(p.y(), cellSize);
+            for (int dy = -k; dy <= k; ++dy)
+                for (int dx = -k; dx <= k; ++dx) keys.push_back(CrowdField::cellKey(cx + dx, cy + dy));
+        }
+        std::sort(keys.begin(), keys.end());
+        keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+        for (const std::uint64_t key : keys) {
+            f.ix.push_back(static_cast<int>(static_cast<std::uint32_t>(key & 0xffffffffu) ^ 0x80000000u));
+            f.iy.push_back(static_cast<int>(static_cast<std::uint32_t>(key >> 32) ^ 0x80000000u));
+        }
+    }
+    const std::size_t cells = f.ix.size();
+    f.keys_.resize(cells);
+    for (std::size_t c = 0; c < cells; ++c) f.keys_[c] = CrowdField::cellKey(f.ix[c], f.iy[c]);
     f.density.assign(cells, 0.0);
     f.velocity.assign(cells, Vec2(0, 0));
     f.weighted.assign(cells, 0);
     f.people.assign(cells, 0);
     for (const Vec2& p : agents.pos) {
-        const int ix = cellIndex(p.x(), cellSize) - f.ix0, iy = cellIndex(p.y(), cellSize) - f.iy0;
-        ++f.people[static_cast<std::size_t>(iy) * static_cast<std::size_t>(f.nx) + static_cast<std::size_t>(ix)];
+        const std::size_t c = f.find(cellIndex(p.x(), cellSize), cellIndex(p.y(), cellSize));
+        if (c < cells) ++f.people[c];
     }
-    const double reach = 3.0 * R;  // the weight is below e^-9 beyond
     PointGrid grid;
     grid.build(agents.pos, 0.5 * reach);  // half-size cells: fewer candidates per disc query
     const double norm = 1.0 / (kPi * R * R), invR2 = 1.0 / (R * R);
     const long count = static_cast<long>(cells);
 #pragma omp parallel for schedule(static) if (count >= 4096)
     for (long k = 0; k < count; ++k) {
-        const int iy = static_cast<int>(k / f.nx), ix = static_cast<int>(k % f.nx);
-        const Vec2 c = f.centre(ix + f.ix0, iy + f.iy0);
+        const std::size_t c = static_cast<std::size_t>(k);
+        const Vec2 centre = f.centre(f.ix[c], f.iy[c]);
         double sw = 0;
         Vec2 swv(0, 0);
-        grid.forEachWithin(c, reach, [&](int j, const Vec2&, double d2) {
+        grid.forEachWithin(centre, reach, [&](int j, const Vec2&, double d2) {
             const double w = std::exp(-d2 * invR2);
             sw += w;
             swv += w * agents.vel[static_cast<std::size_t>(j)];
         });
         if (!(sw > 0)) continue;
-        f.density[static_cast<std::size_t>(k)] = norm * sw;
-        f.velocity[static_cast<std::size_t>(k)] = swv / sw;
-        f.weighted[static_cast<std::size_t>(k)] = 1;
+        f.density[c] = norm * sw;
+        f.velocity[c] = swv / sw;
+        f.weighted[c] = 1;
     }
     return f;
 }
@@ -130,43 +172,41 @@ void SafetyRecorder::recordAt(const AgentStore& a, double t, const HealthLayer* 
     const double levels[3] = {t_.densityCaution, t_.densityDangerous, t_.densityCritical};
     bool held[kConditions] = {false, false, false, false, false};
     std::size_t people[kConditions] = {0, 0, 0, 0, 0};
-    for (int iy = 0; iy < f.ny; ++iy)
-        for (int ix = 0; ix < f.nx; ++ix) {
-            const std::size_t k = static_cast<std::size_t>(iy) * static_cast<std::size_t>(f.nx) + static_cast<std::size_t>(ix);
-            Cell& cell = cells_[{iy + f.iy0, ix + f.ix0}];
-            cell.maxDensity = std::max(cell.maxDensity, f.density[k]);
-            for (int l = 0; l < 3; ++l)
-                if (f.density[k] > levels[l]) {
-                    cell.seconds[l] += dt;
-                    held[l] = true;
-                    people[l] += static_cast<std::size_t>(f.people[k]);
-                }
-            // Crowd pressure: the variance in time of the local velocity at this place, times
-            // the local density (both averaged over the window). A cell with no agent within
-            // reach has no local velocity; its averages restart when agents come back.
-            double pressure = 0;
-            if (f.weighted[k]) {
-                const Vec2& v = f.velocity[k];
-                const bool continues = cell.sampledAt == previous && dt > 0;
-                const double w = continues ? alpha : 1.0;
-                cell.meanDensity += w * (f.density[k] - cell.meanDensity);
-                cell.meanVelocity += w * (v - cell.meanVelocity);
-                cell.meanSquaredSpeed += w * (v.squaredNorm() - cell.meanSquaredSpeed);
-                cell.sampledAt = t;
-                pressure = cell.meanDensity * std::max(0.0, cell.meanSquaredSpeed - cell.meanVelocity.squaredNorm());
-                maxPressure_ = std::max(maxPressure_, pressure);
+    for (std::size_t k = 0; k < f.size(); ++k) {
+        Cell& cell = cells_[{f.iy[k], f.ix[k]}];
+        cell.maxDensity = std::max(cell.maxDensity, f.density[k]);
+        for (int l = 0; l < 3; ++l)
+            if (f.density[k] > levels[l]) {
+                cell.seconds[l] += dt;
+                held[l] = true;
+                people[l] += static_cast<std::size_t>(f.people[k]);
             }
-            // Crowd turbulence is a dense-crowd phenomenon (Helbing et al. 2007 observed it at
-            // 7–9 persons/m²). Where people merely pass the same place in different directions at
-            // low density (crossings, counter-flows), the local velocity also varies in time, so
-            // the pressure counts only where the density is above Fruin's level F as well
-            // (docs/crowd-health.md shows a sparse crossing that needs this gate).
-            if (pressure > t_.crowdPressureCritical && cell.meanDensity > t_.densityCaution) {
-                cell.seconds[Pressure] += dt;
-                held[Pressure] = true;
-                people[Pressure] += static_cast<std::size_t>(f.people[k]);
-            }
+        // Crowd pressure: the variance in time of the local velocity at this place, times
+        // the local density (both averaged over the window). A cell with no agent within
+        // reach has no local velocity; its averages restart when agents come back.
+        double pressure = 0;
+        if (f.weighted[k]) {
+            const Vec2& v = f.velocity[k];
+            const bool continues = cell.sampledAt == previous && dt > 0;
+            const double w = continues ? alpha : 1.0;
+            cell.meanDensity += w * (f.density[k] - cell.meanDensity);
+            cell.meanVelocity += w * (v - cell.meanVelocity);
+            cell.meanSquaredSpeed += w * (v.squaredNorm() - cell.meanSquaredSpeed);
+            cell.sampledAt = t;
+            pressure = cell.meanDensity * std::max(0.0, cell.meanSquaredSpeed - cell.meanVelocity.squaredNorm());
+            maxPressure_ = std::max(maxPressure_, pressure);
         }
+        // Crowd turbulence is a dense-crowd phenomenon (Helbing et al. 2007 observed it at
+        // 7–9 persons/m²). Where people merely pass the same place in different directions at
+        // low density (crossings, counter-flows), the local velocity also varies in time, so
+        // the pressure counts only where the density is above Fruin's level F as well
+        // (docs/crowd-health.md shows a sparse crossing that needs this gate).
+        if (pressure > t_.crowdPressureCritical && cell.meanDensity > t_.densityCaution) {
+            cell.seconds[Pressure] += dt;
+            held[Pressure] = true;
+            people[Pressure] += static_cast<std::size_t>(f.people[k]);
+        }
+    }
     // Contact per cell, and crush from each agent's last force against its own threshold.
     std::map<std::pair<int, int>, bool> crushCells;
     for (std::size_t i = 0; i < a.size() && health != nullptr; ++i) {
@@ -201,18 +241,27 @@ std::string SafetyRecorder::heatmapCsv() const {
         ix1 = std::max(ix1, key.second);
     }
     const Cell empty;
+    // The full rectangle while it is at most 4M cells (a plotting program wants a regular grid);
+    // for a crowd scattered far apart, only the cells that were evaluated, in the same order.
+    const bool full = (static_cast<double>(ix1) - ix0 + 1) * (static_cast<double>(iy1) - iy0 + 1) <= (1 << 22);
+    auto row = [&](int ix, int iy, const Cell& c) {
+        appendNumber(out, (ix + 0.5) * t_.cellSize);
+        out += ',';
+        appendNumber(out, (iy + 0.5) * t_.cellSize);
+        for (const double v : {c.maxDensity, c.maxContact, c.seconds[DensityDangerous], c.seconds[Crush]}) {
+            out += ',';
+            appendNumber(out, v);
+        }
+        out += '\n';
+    };
+    if (!full) {
+        for (const auto& [key, cell] : cells_) row(key.second, key.first, cell);
+        return out;
+    }
     for (int iy = iy0; iy <= iy1; ++iy)
         for (int ix = ix0; ix <= ix1; ++ix) {
             const auto it = cells_.find({iy, ix});
-            const Cell& c = it == cells_.end() ? empty : it->second;
-            appendNumber(out, (ix + 0.5) * t_.cellSize);
-            out += ',';
-            appendNumber(out, (iy + 0.5) * t_.cellSize);
-            for (const double v : {c.maxDensity, c.maxContact, c.seconds[DensityDangerous], c.seconds[Crush]}) {
-                out += ',';
-                appendNumber(out, v);
-            }
-            out += '\n';
+            row(ix, iy, it == cells_.end() ? empty : it->second);
         }
     return out;
 }

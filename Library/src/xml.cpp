@@ -4,6 +4,7 @@
 
 #include "xml_internal.h"
 
+#include "crowdhealth/output.h"
 #include "crowdhealth/safety.h"
 
 #include <algorithm>
@@ -15,6 +16,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string_view>
+#include <unistd.h>
 
 namespace ch {
 
@@ -736,6 +738,64 @@ void checkPolicyRefs(LoadContext& ctx) {
                                          (known.empty() ? "none" : known) + ")");
 }
 
+/// What a run would need, checked before anything is simulated: coordinates the grids can cover,
+/// memory for the agents, and the number of steps (docs/user-guide.md, "Limits").
+void checkResources(LoadContext& ctx, const std::string& path, const SourceLoc& simulationLoc) {
+    // The neighbour grids and the safety grid work in cells of about a metre; a coordinate of
+    // 1e15 m would ask for more cells than any machine holds (and overflow their indices).
+    constexpr double kMaxCoordinate = 1e6;  // m: 1000 km, far beyond any venue (UMANS' far goals are 50 km)
+    const auto far = [&](const Vec2& p) { return !(std::abs(p.x()) <= kMaxCoordinate && std::abs(p.y()) <= kMaxCoordinate); };
+    const auto at = [](const Vec2& p) { return "(" + formatNumber(p.x()) + ", " + formatNumber(p.y()) + ") m"; };
+    const std::string why = ": coordinates must lie within ±" + formatNumber(kMaxCoordinate) +
+                            " m (1000 km): the neighbour and safety grids could not cover a wider area";
+    int reported = 0;
+    for (const AgentSpec& a : ctx.spec.agents) {
+        if (reported >= 5) break;
+        if (far(a.position)) {
+            ctx.diags.error(a.loc, "agent " + std::to_string(a.id) + " starts at " + at(a.position) + why);
+            ++reported;
+        } else if (a.goal && far(*a.goal)) {
+            ctx.diags.error(a.loc, "agent " + std::to_string(a.id) + " has its goal at " + at(*a.goal) + why);
+            ++reported;
+        }
+    }
+    for (const ObstacleSpec& o : ctx.spec.obstacles)
+        for (const Vec2& p : o.points)
+            if (reported < 5 && far(p)) {
+                ctx.diags.error(o.loc, "obstacle point at " + at(p) + why);
+                ++reported;
+                break;
+            }
+
+    // Memory: about 1 KiB per agent in a run (state, neighbour lists, health record; the 1M-agent
+    // crowd of the benchmark peaks at 998 MiB), against the machine's physical memory.
+    const long pages = ::sysconf(_SC_PHYS_PAGES), pageSize = ::sysconf(_SC_PAGE_SIZE);
+    const double agents = static_cast<double>(ctx.spec.agents.size());
+    const double need = agents * 1024.0;
+    if (pages > 0 && pageSize > 0) {
+        const double have = static_cast<double>(pages) * static_cast<double>(pageSize);
+        const std::string numbers = formatNumber(agents) + " agents need about " + formatNumber(need / (1 << 20), 3) +
+                                    " MiB; this machine has " + formatNumber(have / (1 << 20), 3) + " MiB";
+        if (need > have)
+            ctx.diags.error(simulationLoc, numbers + ": the run cannot fit in memory");
+        else if (need > 0.5 * have)
+            ctx.diags.warning(simulationLoc, numbers + ": the run may exhaust memory");
+    }
+
+    // Steps: warn when the run is absurdly long for its time step (1e8 fine steps take hours
+    // even for a single agent).
+    const double dt = ctx.spec.fineStep();
+    if (dt > 0 && ctx.spec.endTime > 0) {
+        const double steps = ctx.spec.endTime / dt;
+        if (steps >= 1e8)
+            ctx.diags.warning(simulationLoc, "end_time " + formatNumber(ctx.spec.endTime) + " s in fine steps of " +
+                                                 formatNumber(dt) + " s is " + formatNumber(steps, 3) +
+                                                 " steps: at least " + formatNumber(steps * 1e-6 / 3600.0, 2) +
+                                                 " hours even for one agent (about 1 µs per step); check delta_time");
+    }
+    (void)path;
+}
+
 }  // namespace
 
 }  // namespace xmlio
@@ -777,6 +837,7 @@ std::optional<ScenarioSpec> loadScenario(const std::string& path, Diagnostics& d
     checkPolicyRefs(ctx);
     checkSchedule(ctx);
     checkWallModels(ctx);
+    checkResources(ctx, path, locOf(path, simulation));
     if (ctx.policyIds.empty() && !ctx.policiesIncomplete)
         diags.error(locOf(path, simulation),
                     "no policy defined: a scenario needs a <Policies> block with at least one <Policy>");

@@ -17,6 +17,7 @@
 
 #include "crowdhealth/simulation.h"
 
+#include <cstdint>
 #include <limits>
 #include <map>
 #include <string>
@@ -29,18 +30,25 @@ namespace ch {
 /// loader and the documentation check.
 const ParamTable& safetyTable();
 
-/// The crowd measures on the cells covering the agents (one cell of margin).
+/// The crowd measures on the cells around the agents: every cell of the rectangle covering them
+/// (one cell of margin), or, for a crowd scattered over a huge area, only the cells within reach
+/// of an agent. Entries are sorted by (iy, ix).
 struct CrowdField {
     double cellSize = 1;
-    int ix0 = 0, iy0 = 0, nx = 0, ny = 0;  ///< cell (ix, iy) spans [ix·c, (ix+1)·c) × [iy·c, (iy+1)·c)
-    std::vector<double> density;   ///< persons/m² at each cell centre, row-major (y outer)
+    std::vector<int> ix, iy;       ///< cell (ix, iy) spans [ix·c, (ix+1)·c) × [iy·c, (iy+1)·c)
+    std::vector<double> density;   ///< persons/m² at each cell centre
     /// Local velocity V(r,t) at each cell centre (m/s); unset where `weighted` is 0.
     std::vector<Vec2> velocity;
     /// 1 where some agent lies within reach of the centre (the local velocity is defined), else 0.
     std::vector<unsigned char> weighted;
     std::vector<int> people;       ///< agents whose centre lies in the cell
+    std::size_t size() const { return ix.size(); }
+    /// The entry of cell (x, y), or size() when it was not evaluated.
+    std::size_t find(int x, int y) const;
     double maxDensity() const;
-    Vec2 centre(int ix, int iy) const { return Vec2((ix + 0.5) * cellSize, (iy + 0.5) * cellSize); }
+    Vec2 centre(int x, int y) const { return Vec2((x + 0.5) * cellSize, (y + 0.5) * cellSize); }
+    static std::uint64_t cellKey(int x, int y);
+    std::vector<std::uint64_t> keys_;  ///< cellKey of each entry, ascending (for find())
 };
 
 /// Evaluates the Helbing et al. 2007 local density and local velocity on the grid (one instant).
