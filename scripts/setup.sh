@@ -22,6 +22,9 @@ if ((${#missing[@]})); then
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${missing[@]}"
 fi
 
+# SETUP_ONLY_PACKAGES=1: install only (scripts/test.sh --sanitize configures its own build).
+if [ -n "${SETUP_ONLY_PACKAGES:-}" ]; then exit 0; fi
+
 JOBS="${JOBS:-$(nproc)}"
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release "$@"
 cmake --build build -j "$JOBS"

@@ -1,7 +1,38 @@
 #!/usr/bin/env bash
 # Installs what is missing, builds, and runs the whole test suite with ctest.
+#
+#   scripts/test.sh [CTEST ARGS…]             Release build in build/, every test
+#   scripts/test.sh --sanitize [CTEST ARGS…]  a second build in build-asan/ (RelWithDebInfo,
+#                                             AddressSanitizer + UndefinedBehaviorSanitizer, abort on
+#                                             the first report) and the whole suite run there
+#
+# docs/development.md explains both. JOBS sets the build and ctest parallelism (default: nproc).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-scripts/setup.sh
-cd build
+
+sanitize=0
+if [ "${1:-}" = "--sanitize" ]; then
+  sanitize=1
+  shift
+fi
+
+if [ "$sanitize" -eq 0 ]; then
+  scripts/setup.sh
+  cd build
+  ctest --output-on-failure -j "${JOBS:-$(nproc)}" "$@"
+  exit 0
+fi
+
+# Installs the packages (and builds build/, which the two CLI tests of the viewer and the
+# benchmark do not need here, but setup.sh is the one place that knows the package list).
+SETUP_ONLY_PACKAGES=1 scripts/setup.sh
+cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCROWDHEALTH_SANITIZE=ON \
+      -DCROWDHEALTH_BUILD_BENCHMARKS=OFF
+cmake --build build-asan -j "${JOBS:-$(nproc)}"
+cd build-asan
+# detect_leaks: LeakSanitizer as well; abort_on_error/halt_on_error: a report ends the test with a
+# failure; the suppressions file lists only reports from outside the project (docs/development.md).
+export ASAN_OPTIONS="detect_leaks=1:abort_on_error=1:strict_string_checks=1:detect_stack_use_after_return=1${ASAN_OPTIONS:+:$ASAN_OPTIONS}"
+export UBSAN_OPTIONS="halt_on_error=1:abort_on_error=1:print_stacktrace=1${UBSAN_OPTIONS:+:$UBSAN_OPTIONS}"
+export LSAN_OPTIONS="suppressions=$(cd .. && pwd)/Tests/sanitizer/lsan.supp${LSAN_OPTIONS:+:$LSAN_OPTIONS}"
 ctest --output-on-failure -j "${JOBS:-$(nproc)}" "$@"
