@@ -11,6 +11,7 @@
 
 #include "exit_codes.h"
 #include "render_scene.h"
+#include "trajectory_read.h"
 
 #include <crowdhealth/output.h>
 #include <crowdhealth/simulation.h>
@@ -167,89 +168,6 @@ bool framesFromScenario(const RenderOptions& o, const ch::ScenarioSpec& spec, st
     return true;
 }
 
-/// One recorded position.
-struct Sample {
-    long long id;
-    double x, y;
-};
-
-/// Reads RUNDIR/trajectories.bin (compact binary), else RUNDIR/trajectories.txt (PedPy), else
-/// RUNDIR/output_<id>.csv (UMANS) into frame index (coarse step) → samples; `dt` is the time of
-/// one frame index (s), i.e. delta_time. With a trajectory interval, not every index has a frame.
-/// `explicitFrames`: every recorded frame is in byFrame, also those without agents (binary file).
-bool readTrajectories(const fs::path& dir, double& dt, std::map<std::int64_t, std::vector<Sample>>& byFrame,
-                      bool& explicitFrames, std::string& error) {
-    const fs::path bin = dir / "trajectories.bin";
-    explicitFrames = fs::exists(bin);
-    if (explicitFrames) {
-        try {
-            const ch::BinaryTrajectories t = ch::readBinaryTrajectories(bin);
-            if (t.deltaTime > 0) dt = t.deltaTime;
-            for (const ch::TrajectoryFrame& f : t.frames) {
-                std::vector<Sample>& samples = byFrame[static_cast<std::int64_t>(f.step)];  // ids already sorted
-                for (std::size_t k = 0; k < f.id.size(); ++k) samples.push_back({f.id[k], f.x[k], f.y[k]});
-            }
-        } catch (const std::exception& e) {
-            error = e.what();
-            return false;
-        }
-        return true;
-    }
-    const fs::path txt = dir / "trajectories.txt";
-    if (fs::exists(txt)) {
-        std::ifstream in(txt);
-        std::string line;
-        while (std::getline(in, line)) {
-            if (line.empty()) continue;
-            if (line[0] == '#') {
-                std::smatch m;
-                static const std::regex fr("#\\s*framerate:\\s*([0-9.eE+-]+)");
-                if (std::regex_search(line, m, fr)) {
-                    const double rate = std::stod(m[1].str());
-                    if (rate > 0) dt = 1.0 / rate;
-                }
-                continue;
-            }
-            std::istringstream s(line);
-            long long id;
-            std::int64_t frame;
-            double x, y;
-            if (!(s >> id >> frame >> x >> y)) {
-                error = txt.string() + ": cannot read the line \"" + line + "\"";
-                return false;
-            }
-            byFrame[frame].push_back({id, x, y});
-        }
-        return true;
-    }
-    bool any = false;
-    static const std::regex name("^output_(-?[0-9]+)\\.csv$");
-    for (const auto& e : fs::directory_iterator(dir)) {
-        std::smatch m;
-        const std::string fn = e.path().filename().string();
-        if (!std::regex_match(fn, m, name)) continue;
-        any = true;
-        const long long id = std::stoll(m[1].str());
-        std::ifstream in(e.path());
-        std::string line;
-        while (std::getline(in, line)) {
-            double t, x, y;
-            char c1, c2;
-            std::istringstream s(line);
-            if (!(s >> t >> c1 >> x >> c2 >> y)) continue;
-            byFrame[static_cast<std::int64_t>(std::llround(t / dt))].push_back({id, x, y});
-        }
-    }
-    if (!any) {
-        error = "no trajectories in " + dir.string() +
-                " (no trajectories.bin, trajectories.txt or output_<id>.csv); run the scenario with "
-                "--trajectories bin, txt or umans";
-        return false;
-    }
-    for (auto& [frame, samples] : byFrame)
-        std::sort(samples.begin(), samples.end(), [](const Sample& a, const Sample& b) { return a.id < b.id; });
-    return true;
-}
 
 std::optional<ch::ScenarioSpec> replaySpec(const RenderOptions& o) {
     const fs::path dir(o.replay);

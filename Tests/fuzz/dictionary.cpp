@@ -1,0 +1,50 @@
+// Prints a libFuzzer dictionary for the scenario loader: every element name the loader knows,
+// every registered component with its parameters, and the attributes of the parameter tables
+// the library exposes (<Safety>, <CrowdHealth>), as "token" lines. scripts/fuzz.sh runs it.
+#include "crowdhealth/health.h"
+#include "crowdhealth/registry.h"
+#include "crowdhealth/safety.h"
+
+#include <iostream>
+#include <set>
+#include <string>
+
+int main() {
+    std::set<std::string> tokens;
+    for (const char* e : {"Simulation", "World", "Obstacles", "Obstacle", "Point", "Box", "Policies", "Policy",
+                          "Step", "costfunction", "CostFunction", "CrowdHealth", "Agents", "Agent", "pos", "goal",
+                          "color", "AgentGrid", "SpawnRectangle", "Output", "Safety", "Schedule", "Ramp",
+                          "PanicEvent"}) {
+        tokens.insert("<" + std::string(e));
+        tokens.insert("</" + std::string(e) + ">");
+    }
+    for (const char* a : {"delta_time", "delta_time_fine", "end_time", "seed", "type", "width", "height", "xmin",
+                          "xmax", "ymin", "ymax", "file", "id", "name", "coeff", "range", "rad", "pref_speed",
+                          "max_speed", "max_acceleration", "mass", "remove_at_goal", "start_time", "goal_radius",
+                          "x", "y", "r", "g", "b", "OptimizationMethod", "RelaxationTime", "ContactForceScale",
+                          "DeltaTime", "StopAtGoal", "BlendField", "BlendFrom", "BlendTo", "particles", "spacing",
+                          "columns", "rows", "rad_min", "rad_max", "policy", "component", "parameter", "from", "to",
+                          "start", "end", "agents", "time", "radius", "strength", "trajectories",
+                          "trajectory_interval", "metrics_interval", "NrAgentsHorizontal", "NrAgentsVertical"})
+        tokens.insert(std::string(a) + "=\"");
+    for (const ch::ComponentInfo* info : ch::Registry::instance().all()) {
+        tokens.insert("\"" + info->name + "\"");
+        for (const ch::ParamSpec& p : ch::Registry::fullTable(*info)) tokens.insert(p.name + "=\"");
+    }
+    for (const ch::ParamSpec& p : ch::safetyTable()) tokens.insert(p.name + "=\"");
+    for (const ch::ParamSpec& p : ch::crowdHealthTable()) tokens.insert(p.name + "=\"");
+    for (const char* v : {"\"Infinite\"", "\"Toric\"", "\"Planar\"", "\"gradient\"", "\"sampling\"", "\"global\"",
+                          "\"fine\"", "\"coarse\"", "\"true\"", "\"false\"", "\"auto\"", "\"nan\"", "\"1e308\"",
+                          "\"-1\"", "\"0\"", "/>", "<?xml version=\"1.0\"?>", "<!--", "-->", "\n--FILE--\n",
+                          "\"inc1.xml\"", "\"inc2.xml\"", "\"inc3.xml\"", "\"main.xml\""})
+        tokens.insert(v);
+    for (const std::string& t : tokens) {
+        std::cout << '"';
+        for (const char c : t) {
+            if (c == '"' || c == '\\') std::cout << '\\' << c;
+            else if (c == '\n') std::cout << "\\n";
+            else std::cout << c;
+        }
+        std::cout << "\"\n";
+    }
+}
