@@ -10,6 +10,10 @@
 // and evacuates (no jam), but its flow does not reproduce — about 1.67 P/s against the paper's 1.29
 // (+29 %) — so only what holds is asserted; docs/policies.md ("Measured Table 1", "Differences
 // over 15 %") states the flow and why. The other SF-led rows are in that table, not here.
+//
+// Short variant (CROWDHEALTH_SHORT set, as scripts/test.sh --sanitize does, where every run is
+// about three times slower): seed 1 only, to t = 30 s; the density at 15 s is checked as above
+// and people must be leaving (at least 20 out); the flow and the 350 evacuees are not checked.
 #define BOOST_TEST_MODULE vantoll_reference
 #include <boost/test/unit_test.hpp>
 
@@ -18,6 +22,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <future>
 #include <limits>
 #include <string>
@@ -59,9 +64,12 @@ Measured runOnce(const std::string& file, std::uint64_t seed, double endTime) {
     return m;
 }
 
+bool shortVariant() { return std::getenv("CROWDHEALTH_SHORT") != nullptr; }
+
 Measured meanOverSeeds(const std::string& name, double endTime) {
     const std::string file = std::string(CH_SOURCE_DIR) + "/Examples/doorway/vantoll/" + name;
-    const int seeds = 3;
+    const int seeds = shortVariant() ? 1 : 3;
+    if (shortVariant()) endTime = 30;
     std::vector<std::future<Measured>> runs;
     for (int s = 1; s <= seeds; ++s)
         runs.push_back(std::async(std::launch::async, runOnce, file, static_cast<std::uint64_t>(s), endTime));
@@ -84,8 +92,12 @@ BOOST_AUTO_TEST_CASE(vantoll_rvo_sph_rho0max_3) {
     const Measured m = meanOverSeeds("rvo-sph-rho3.xml", 400);
     BOOST_TEST_MESSAGE("RVO+SPH rho0_max 3 mean: density@15s " << m.density15 << " (paper 2.61), flow " << m.flow
                                                               << " (paper 1.43)");
-    BOOST_TEST(m.evacuated >= 350u);  // every seed
     BOOST_TEST(std::abs(m.density15 - 2.61) <= 0.15 * 2.61);
+    if (shortVariant()) {  // seed 1 to 30 s: people are leaving
+        BOOST_TEST(m.evacuated >= 20u);
+        return;
+    }
+    BOOST_TEST(m.evacuated >= 350u);  // every seed
     BOOST_TEST(std::abs(m.flow - 1.43) <= 0.15 * 1.43);
 }
 
@@ -93,8 +105,12 @@ BOOST_AUTO_TEST_CASE(vantoll_sf_k50) {
     const Measured m = meanOverSeeds("sf-k50.xml", 400);
     BOOST_TEST_MESSAGE("SF K_ag 50 mean: density@15s " << m.density15 << " (paper 4.39), flow " << m.flow
                                                        << " (paper 2.70), fewest evacuated " << m.evacuated);
-    BOOST_TEST(m.evacuated >= 350u);  // every seed
     BOOST_TEST(std::abs(m.density15 - 4.39) <= 0.15 * 4.39);
+    if (shortVariant()) {  // seed 1 to 30 s: people are leaving
+        BOOST_TEST(m.evacuated >= 20u);
+        return;
+    }
+    BOOST_TEST(m.evacuated >= 350u);  // every seed
     BOOST_TEST(std::abs(m.flow - 2.70) <= 0.15 * 2.70);
 }
 
@@ -105,6 +121,10 @@ BOOST_AUTO_TEST_CASE(vantoll_sf_k1000) {
     BOOST_TEST_MESSAGE("SF K_ag 1000 mean: density@15s " << m.density15 << " (paper 4.21), flow " << m.flow
                                                          << " (paper 1.29, not asserted), fewest evacuated "
                                                          << m.evacuated);
-    BOOST_TEST(m.evacuated >= 350u);  // every seed
     BOOST_TEST(std::abs(m.density15 - 4.21) <= 0.15 * 4.21);
+    if (shortVariant()) {  // seed 1 to 30 s: people are leaving
+        BOOST_TEST(m.evacuated >= 20u);
+        return;
+    }
+    BOOST_TEST(m.evacuated >= 350u);  // every seed
 }
