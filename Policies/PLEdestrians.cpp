@@ -58,7 +58,7 @@ Vec2 PLEdestrians::goalOffset(const AgentQuery& q, const StepContext& ctx) const
 
 namespace {
 /// Weight (J·s/(kg·m)) of the right-hand tie-break: far below any real difference of effort.
-constexpr double kTieBreak = 1e-9;
+constexpr double kTieBreak = 1e-5;
 /// Unit vector to the left of the preferred direction (zero at the goal).
 Vec2 leftOf(const AgentQuery& q) {
     const Vec2 d = normalisedOrZero(q.prefVelocity);

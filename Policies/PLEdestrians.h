@@ -30,12 +30,15 @@ namespace ch {
 /// separate the pair); `overlap="closing"` makes every velocity that closes the gap inadmissible
 /// instead — two agents that touch head-on or at a right angle then block each other for ever.
 /// A goal-less agent uses g = x (it prefers to stand still).
-/// Tie-break (ours): the cost carries 1e-9·(v · left of v_pref), a preference for the right-hand
+/// Tie-break (ours): the cost carries 1e-5·(v · left of v_pref), a preference for the right-hand
 /// side far below any real difference of effort. UMANS' PLEdestrians.xml samples directions in
 /// world axes, so two mirror-image candidates of equal effort are decided by the world
 /// orientation; in an exact head-on encounter both agents then step to the same world side and
-/// block each other for ever. With the tie-break each agent decides in its own frame.
-/// The closed-form minimum ignores this term (it moves the optimum by ~1e-9 m/s).
+/// block each other for ever. With the tie-break each agent decides in its own frame. Its weight
+/// (1e-5 J·s/(kg·m), a millionth of the effort of a step) must outweigh the symmetry breaking
+/// (Simulation@symmetry_breaking, 1e-6 m per step while held up): at 1e-9 the perturbation
+/// chose the side at random and UMANS' exact head-on (1to1-180Degrees) stalled for 6 s.
+/// The closed-form minimum ignores this term (it moves the optimum by ~1e-6 m/s).
 class PLEdestrians : public Component {
 public:
     explicit PLEdestrians(const ParamSet& params);

@@ -86,10 +86,12 @@ BOOST_AUTO_TEST_CASE(same_bits_with_one_and_two_threads) {
     ScenarioSpec spec = loadExample("Circle25-Moussaid.xml");
     spec.endTime = 20;
     Simulation one(spec), two(spec);
+    // The thread count is OpenMP's setting of the calling thread: set it right before each run.
     one.setThreads(1);
-    two.setThreads(2);
     while (!one.finished()) one.stepCoarse();
+    two.setThreads(2);
     while (!two.finished()) two.stepCoarse();
+    one.setThreads(1);
     BOOST_TEST_REQUIRE(one.agents().size() == two.agents().size());
     for (std::size_t i = 0; i < one.agents().size(); ++i) {
         BOOST_TEST(one.agents().id[i] == two.agents().id[i]);
