@@ -33,6 +33,10 @@ ComponentInfo Karamouzas::Info() {
         tcMin,
         ParamSpec::real("tc_mid", "s", 6.0, 0.0, 1e3,
                         "the admissible cone narrows linearly from 30 degrees at tc_mid to ~0 at t_max"),
+        ParamSpec::choice("overlap", {"ignore", "closing"}, 0,
+                          "a neighbour or wall the agent already overlaps: ignore = left out of every time to "
+                          "collision, contact forces separate the pair (UMANS 1.x); closing = an immediate "
+                          "collision for velocities that close the gap"),
     };
     info.create = [](const ParamSet& p) { return std::make_unique<Karamouzas>(p); };
     return info;
@@ -47,10 +51,11 @@ Karamouzas::Karamouzas(const ParamSet& params) {
     bind(params, "t_max", tMax_);
     bind(params, "tc_min", tcMin_);
     bind(params, "tc_mid", tcMid_);
+    bind(params, "overlap", overlap_);
 }
 
 double Karamouzas::timeToFirstCollision(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const {
-    return ch::timeToFirstCollision(v, q, ctx, range_);
+    return ch::timeToFirstCollision(v, q, ctx, range_, overlap_ == 0 ? OverlapRule::Ignore : OverlapRule::Closing);
 }
 
 double Karamouzas::maxDeviation(double ttc) const {

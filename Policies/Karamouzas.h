@@ -42,9 +42,11 @@ namespace ch {
 ///    the same minimiser.
 ///  * UMANS keeps tc_max = 8 s even when `t_max` is changed; here the last threshold is `t_max`.
 ///    `tc_min` and `tc_mid` are parameters (UMANS constants 2.5 s and 6 s).
-///  * UMANS ignores a neighbour the agent already overlaps. Here such a neighbour (or wall) counts
-///    as a collision at t = 0 for velocities that close the gap, and is ignored for velocities that
-///    open it: the agent is never rewarded for pushing deeper into someone.
+///  * A neighbour (or wall) the agent already overlaps is ignored, as in UMANS (`overlap="ignore"`,
+///    the default; contact forces separate the pair). `overlap="closing"` counts it as a collision
+///    at t = 0 for velocities that close the gap (ignored for velocities that open it), so the agent
+///    is never rewarded for pushing deeper into someone — but two agents that touch at a right
+///    angle then hold each other up (UMANS' 1to1-90Degrees example: 54 s instead of 12 s).
 ///  * UMANS gives inadmissible velocities the cost +∞ (FLT_MAX). On a fixed sample grid the
 ///    admissible set is often empty: with nothing ahead it is a 0.1 m/s-wide ring segment of
 ///    ±3°, and UMANS' Karamouzas.xml puts speed rings every u_max/14 (0.114 m/s for 1.6 m/s), so
@@ -81,6 +83,7 @@ private:
     double tMax_ = 8.0;    ///< s, collisions farther away are ignored (also tc_max)
     double tcMin_ = 2.5;   ///< s, below: imminent collision, every speed allowed
     double tcMid_ = 6.0;   ///< s, start of the narrowing of the admissible cone
+    double overlap_ = 0;   ///< 0 = ignore overlapped neighbours (UMANS), 1 = closing velocities collide now
 
     static constexpr double kDMin = 0.05;                ///< rad
     static constexpr double kDMid = kPi / 6.0;           ///< rad

@@ -21,7 +21,13 @@ ComponentInfo Moussaid::Info() {
     ParamSpec dMax = ParamSpec::real("d_max", "m", 8.0, 0.0, 1e3,
                                      "horizon distance: free distances are capped at it (paper: 10 m)");
     dMax.minExclusive = true;
-    info.params = {dMax};
+    info.params = {
+        dMax,
+        ParamSpec::choice("overlap", {"stop", "closing"}, 0,
+                          "a neighbour the agent's body already overlaps: stop = blocks every direction, the agent "
+                          "brakes and contact forces separate the pair (UMANS 1.x); closing = blocks only the "
+                          "directions that close the gap"),
+    };
     info.create = [](const ParamSet& p) { return std::make_unique<Moussaid>(p); };
     return info;
 }
@@ -29,6 +35,16 @@ ComponentInfo Moussaid::Info() {
 Moussaid::Moussaid(const ParamSet& params) {
     bind(params, "range", range_);
     bind(params, "d_max", dMax_);
+    bind(params, "overlap", overlap_);
+}
+
+bool Moussaid::overlapsNeighbour(const AgentQuery& q, const StepContext& ctx) const {
+    for (const NeighbourAgent& n : q.agents) {
+        const double d2 = n.distanceSquared();
+        const double reach = q.radius + ctx.agents.radius[n.index];
+        if (d2 <= range_ * range_ && d2 <= reach * reach) return true;
+    }
+    return false;
 }
 
 double Moussaid::distanceToCollision(const Vec2& dir, double speed, const AgentQuery& q,
@@ -45,6 +61,10 @@ double Moussaid::cost(const Vec2& v, const AgentQuery& q, const StepContext& ctx
     const double speed = v.norm();
     // At the goal (or no wish to walk): prefer standing still.
     if (prefNorm <= 1e-12 || v0 <= 0) return speed * speed;
+
+    // UMANS: an overlapped neighbour is a collision at distance 0 in every direction, so every
+    // velocity costs 0/0 or ∞ there and the sampler keeps its base (zero velocity): the agent brakes.
+    if (overlap_ == kOverlapStop && overlapsNeighbour(q, ctx)) return kInf;
 
     const Vec2 goalDir = q.prefVelocity / prefNorm;
     const Vec2 dir = speed > 1e-12 ? Vec2(v / speed) : goalDir;

@@ -26,8 +26,10 @@ namespace ch {
 /// Differences from UMANS (same formula otherwise):
 ///  * a direction blocked now (f = 0, so v_des = 0) gives in UMANS a 0/0 cost (NaN); here the
 ///    relative speed error uses max(v_des, 1 mm/s), so only standing still is cheap there;
-///  * UMANS counts a neighbour the agent already overlaps as a collision at distance 0 in every
-///    direction; here only in directions that close the gap (others ignore it);
+///  * a neighbour the agent already overlaps: UMANS counts it as a collision at distance 0 in every
+///    direction, so no candidate has a finite cost and the agent brakes towards standing still
+///    until contact forces separate the pair; `overlap="stop"` (default) does the same,
+///    `overlap="closing"` blocks only the directions that close the gap;
 ///  * RelaxationTime 0 would divide by zero in UMANS; here τ is at least the step's Δt;
 ///  * the zero velocity takes the preferred direction (UMANS: undefined direction, NaN cost).
 class Moussaid : public Component {
@@ -42,7 +44,10 @@ public:
     double distanceToCollision(const Vec2& dir, double speed, const AgentQuery& q, const StepContext& ctx) const;
 
 private:
+    static constexpr double kOverlapStop = 0;  ///< `overlap` choice index of "stop"
+    bool overlapsNeighbour(const AgentQuery& q, const StepContext& ctx) const;
     double dMax_ = 8.0;  ///< m, horizon distance (paper: 10 m; UMANS default 8 m)
+    double overlap_ = kOverlapStop;  ///< 0 = stop (UMANS), 1 = closing
 };
 
 }  // namespace ch

@@ -29,6 +29,10 @@ ComponentInfo PLEdestrians::Info() {
         wb,
         ParamSpec::real("t_min", "s", 0.5, 0.0, 1e3, "velocities that collide sooner than this are not allowed"),
         tMax,
+        ParamSpec::choice("overlap", {"ignore", "closing"}, 0,
+                          "a neighbour or wall the agent already overlaps: ignore = left out, contact forces "
+                          "separate the pair (UMANS 1.x); closing = every velocity that closes the gap is "
+                          "inadmissible"),
     };
     info.create = [](const ParamSet& p) { return std::make_unique<PLEdestrians>(p); };
     return info;
@@ -40,10 +44,11 @@ PLEdestrians::PLEdestrians(const ParamSet& params) {
     bind(params, "w_b", wb_);
     bind(params, "t_min", tMin_);
     bind(params, "t_max", tMax_);
+    bind(params, "overlap", overlap_);
 }
 
 double PLEdestrians::timeToFirstCollision(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const {
-    return ch::timeToFirstCollision(v, q, ctx, range_);
+    return ch::timeToFirstCollision(v, q, ctx, range_, overlap_ == 0 ? OverlapRule::Ignore : OverlapRule::Closing);
 }
 
 Vec2 PLEdestrians::goalOffset(const AgentQuery& q, const StepContext& ctx) const {
@@ -53,7 +58,7 @@ Vec2 PLEdestrians::goalOffset(const AgentQuery& q, const StepContext& ctx) const
 
 namespace {
 /// Weight (J·s/(kg·m)) of the right-hand tie-break: far below any real difference of effort.
-constexpr double kTieBreak = 1e-9;
+constexpr double kTieBreak = 1e-5;
 /// Unit vector to the left of the preferred direction (zero at the goal).
 Vec2 leftOf(const AgentQuery& q) {
     const Vec2 d = normalisedOrZero(q.prefVelocity);

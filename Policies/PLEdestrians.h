@@ -25,15 +25,20 @@ namespace ch {
 /// paper's formulation.
 ///
 /// Differences from UMANS: same formula and defaults (UMANS follows the velocity for exactly
-/// t_max, as here); UMANS has no gradient or closed form (it samples). UMANS ignores a neighbour
-/// the agent already overlaps; here it makes every velocity that closes the gap inadmissible.
+/// t_max, as here); UMANS has no gradient or closed form (it samples). A neighbour or wall the
+/// agent already overlaps is ignored, as in UMANS (`overlap="ignore"`, the default: contact forces
+/// separate the pair); `overlap="closing"` makes every velocity that closes the gap inadmissible
+/// instead — two agents that touch head-on or at a right angle then block each other for ever.
 /// A goal-less agent uses g = x (it prefers to stand still).
-/// Tie-break (ours): the cost carries 1e-9·(v · left of v_pref), a preference for the right-hand
+/// Tie-break (ours): the cost carries 1e-5·(v · left of v_pref), a preference for the right-hand
 /// side far below any real difference of effort. UMANS' PLEdestrians.xml samples directions in
 /// world axes, so two mirror-image candidates of equal effort are decided by the world
 /// orientation; in an exact head-on encounter both agents then step to the same world side and
-/// block each other for ever. With the tie-break each agent decides in its own frame.
-/// The closed-form minimum ignores this term (it moves the optimum by ~1e-9 m/s).
+/// block each other for ever. With the tie-break each agent decides in its own frame. Its weight
+/// (1e-5 J·s/(kg·m), a millionth of the effort of a step) must outweigh the symmetry breaking
+/// (Simulation@symmetry_breaking, 1e-6 m per step while held up): at 1e-9 the perturbation
+/// chose the side at random and UMANS' exact head-on (1to1-180Degrees) stalled for 6 s.
+/// The closed-form minimum ignores this term (it moves the optimum by ~1e-6 m/s).
 class PLEdestrians : public Component {
 public:
     explicit PLEdestrians(const ParamSet& params);
@@ -52,6 +57,7 @@ private:
     double wb_ = 1.26;   ///< J·s/(kg·m²) = 1/s, e_w: extra power per (m/s)²
     double tMin_ = 0.5;  ///< s, velocities colliding sooner are not allowed
     double tMax_ = 3.0;  ///< s, planning horizon of a candidate velocity
+    double overlap_ = 0; ///< 0 = ignore overlapped neighbours (UMANS), 1 = closing velocities inadmissible
 
     Vec2 goalOffset(const AgentQuery& q, const StepContext& ctx) const;
 };

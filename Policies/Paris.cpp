@@ -27,6 +27,10 @@ ComponentInfo Paris::Info() {
         ParamSpec::real("side_preference", "-", 0.05, 0.0, 1.0,
                         "CrowdHealth extension: preference for detours to the right when the preferred direction "
                         "is in conflict (0 = none)"),
+        ParamSpec::choice("variant", {"exact", "umans"}, 1,
+                          "exact = forbidden speed intervals solved exactly, sums over neighbours, walls, "
+                          "side_preference; umans = what UMANS 1.x computes (its version is marked work in "
+                          "progress): conflict point where the two paths cross, means over neighbours, no walls"),
     };
     info.params[2].minExclusive = true;
     info.create = [](const ParamSet& p) { return std::make_unique<Paris>(p); };
@@ -39,6 +43,57 @@ Paris::Paris(const ParamSet& params) {
     bind(params, "w_b", wB_);
     bind(params, "t_max", tMax_);
     bind(params, "side_preference", sideBias_);
+    bind(params, "variant", variant_);
+}
+
+Paris::UmansConflict Paris::umansConflict(const Vec2& d, const AgentQuery& q, const StepContext& ctx,
+                                          const NeighbourAgent& n) const {
+    // The neighbour's path (at its current velocity) and the agent's line along d cross at X; the
+    // neighbour covers X (within the radius sum R) from t1 to t2 = t1 + R/|u|, each capped at the
+    // horizon (t2 past it counts as 0); the agent reaches X before the neighbour at speeds above
+    // s1 = |X|/t1 and after it below s2 = |X|/t2. No crossing point (parallel paths, a standing
+    // neighbour): a conflict for the whole horizon if walking along d at 1 m/s collides within it.
+    const AgentStore& A = ctx.agents;
+    const Vec2 p = n.offset;  // neighbour relative to the agent
+    const Vec2 u = A.vel[n.index];
+    const double R = q.radius + A.radius[n.index];
+    const double det = d.x() * u.y() - d.y() * u.x();
+    const UmansConflict free{tMax_, 0.0, 0.0, kInf};  // C_pred = 0, every speed allowed
+    if (std::abs(det) < 1e-5) {
+        if (timeToCollision(Vec2(0, 0), d, q.radius, p, u, A.radius[n.index]) > tMax_) return free;
+        return UmansConflict{0.0, tMax_, kInf, 0.0};
+    }
+    const double along = (p.x() * u.y() - p.y() * u.x()) / det;  // X = along·d
+    const Vec2 X = along * d;
+    // A crossing the agent, at its current velocity, does not reach within the horizon is ignored
+    // (also one behind it).
+    if (std::min(tMax_, timeToCollisionPoint(Vec2(0, 0), q.velocity, R, X)) >= tMax_) return free;
+    const double t1 = std::min(tMax_, timeToCollisionPoint(p, u, R, X));
+    double t2 = t1 + R / u.norm();
+    if (t2 > tMax_) t2 = 0;
+    const double dist = X.norm();
+    return UmansConflict{t1, t2, dist / t1, dist / t2};
+}
+
+double Paris::umansCost(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const {
+    const double s = v.norm();
+    const Vec2 d = s > 0 ? Vec2(v / s) : Vec2(0, 0);
+    const double ps = q.prefVelocity.norm();
+    double speedPred = 0, deviation = 0;
+    int count = 0;
+    for (const NeighbourAgent& n : q.agents) {
+        if (n.distanceSquared() > range_ * range_) continue;
+        const UmansConflict c = umansConflict(d, q, ctx, n);
+        ++count;
+        // C_speed (the preferred speed outside [s1, s2]) times C_pred (nearer conflicts count more).
+        const double cSpeed = std::min(std::max(0.0, 1.0 - c.s1 / ps), std::max(0.0, (c.s2 - ps) / ps));
+        speedPred += cSpeed * (1.0 - c.t1 / (tMax_ + wB_));
+        deviation += std::max(0.0, std::max((c.s1 - s) / ps, (s - c.s2) / ps));
+    }
+    if (count > 0) speedPred /= count;
+    const double cosAngle = (s > 0 && ps > 0) ? d.dot(q.prefVelocity) / ps : 0.0;
+    const double direction = wA_ * speedPred + (1 - wA_) * (1 - cosAngle) / 2;
+    return 1000 * direction + deviation + 0.001 * (v - q.prefVelocity).norm();
 }
 
 namespace {
@@ -172,6 +227,7 @@ double Paris::conflictAlong(const Vec2& d, double ps, double s, const AgentQuery
 }
 
 double Paris::cost(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const {
+    if (variant_ == kVariantUmans) return umansCost(v, q, ctx);
     const AgentStore& A = ctx.agents;
     const double s = v.norm();
     const double prefNorm = q.prefVelocity.norm();

@@ -37,7 +37,20 @@ namespace ch {
 /// Static walls give the forbidden interval [D/t_max, ∞), D the distance the agent can walk along
 /// d before touching the wall.
 ///
-/// Differences from UMANS (whose own comment calls its version "work in progress"):
+/// Two variants (parameter `variant`):
+///  * `umans` (default): what UMANS 1.x computes, re-implemented (umansCost): per neighbour in
+///    range, the crossing point X of the agent's line along the candidate direction and the
+///    neighbour's path at its current velocity; the neighbour covers X from t1 (time to come within
+///    the radius sum R of X, capped at t_max) to t2 = t1 + R/|u| (0 past t_max); s1 = |X|/t1,
+///    s2 = |X|/t2; a crossing the agent would not reach within t_max at its *current* velocity is
+///    ignored, parallel paths count as a conflict over the whole horizon if walking along d at
+///    1 m/s collides within t_max. Direction cost w_a·mean_j C_speed,j·C_pred,j + (1 − w_a)·
+///    (1 − cos φ)/2 with C_speed = min(max(0, 1 − s1/v_p), max(0, (s2 − v_p)/v_p)),
+///    C_pred = 1 − t1/(t_max + w_b); speed cost Σ_j max(0, (s1 − s)/v_p, (s − s2)/v_p); total
+///    1000·direction + speed + 0.001·|v − v_pref|. No walls. UMANS' Paris examples then behave as
+///    in UMANS (Circle25: 38.6 s against 39.7 s, Circle50: 86.1 against 87.4); bodies overlap
+///    (up to 0.2 m there, as in UMANS).
+///  * `exact`: the interval model described above, ours. Its differences from UMANS:
 ///  * UMANS derives t1, t2 from the crossing point of the two paths, measuring the agent's own
 ///    arrival with its *current* velocity (so an agent at rest avoids nobody) and swapping the
 ///    roles of s1 and s2, which makes its C_speed identically zero and its speed cost penalise
@@ -76,6 +89,17 @@ private:
     double wB_ = 0.0;   ///< s, softens how fast a conflict's weight decays with its time
     double tMax_ = 8.0; ///< s, prediction horizon
     double sideBias_ = 0.05;  ///< preference for right-hand detours when the preferred direction is blocked
+    double variant_ = 1;      ///< 0 = exact, 1 = umans (UMANS 1.x; default)
+    static constexpr double kVariantUmans = 1;
+
+    /// One neighbour's conflict in the `umans` variant: the neighbour covers the crossing point
+    /// from t1 to t2 (s); the agent passes in front above speed s1, behind below s2 (m/s).
+    struct UmansConflict {
+        double t1, t2, s1, s2;
+    };
+    UmansConflict umansConflict(const Vec2& d, const AgentQuery& q, const StepContext& ctx,
+                                const NeighbourAgent& n) const;
+    double umansCost(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const;
 };
 
 }  // namespace ch

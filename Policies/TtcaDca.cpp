@@ -27,6 +27,10 @@ ComponentInfo TtcaDca::Info() {
                         "width of the Gaussian on the difference to the preferred speed"),
         ParamSpec::real("fov", "deg", 180.0, 0.0, 360.0, "horizontal field of view of the synthetic camera"),
         ParamSpec::integer("pixels", 256, 1, 100000, "number of pixel rays across the field of view"),
+        ParamSpec::choice("vision", {"pixels", "umans"}, 1,
+                          "pixels = rendered pixel rays, gradient in velocity space; umans = one term per "
+                          "neighbour in front, weighted by 1/distance^2, derivatives in (heading, speed) space "
+                          "mapped back as UMANS 1.x does"),
     };
     for (int k = 0; k < 5; ++k) info.params[k].minExclusive = true;
     info.create = [](const ParamSet& p) { return std::make_unique<TtcaDca>(p); };
@@ -41,6 +45,7 @@ TtcaDca::TtcaDca(const ParamSet& params) {
     bind(params, "sigmaSpeed_goal", sigmaSpeed_);
     bind(params, "fov", fovDeg_);
     bind(params, "pixels", pixels_);
+    bind(params, "vision", vision_);
 }
 
 namespace {
@@ -196,7 +201,116 @@ double TtcaDca::movementCost(const Vec2& v, const AgentQuery& q, Vec2* grad) con
     return 1.0 - 0.5 * (cAngle + cSpeed);
 }
 
+namespace {
+/// Signed angle (rad) that turns a onto b, counter-clockwise positive; 0 if either is zero.
+double turnAngle(const Vec2& a, const Vec2& b) {
+    if (a.squaredNorm() == 0 || b.squaredNorm() == 0) return 0.0;
+    return std::atan2(a.x() * b.y() - a.y() * b.x(), a.dot(b));
+}
+}  // namespace
+
+TtcaDca::NeighbourTerm TtcaDca::neighbourTerm(const Vec2& v, const AgentQuery& q, const StepContext& ctx,
+                                               const NeighbourAgent& n) const {
+    // UMANS 1.x's per-neighbour approximation of the pixels: the centre-to-centre offset shortened
+    // by both radii, the relative velocity with a correction along the offset's normal (not
+    // normalised, as there), ttca ≥ 0, and the derivatives of the paper (eq. 29–37) in
+    // (heading, speed) space.
+    NeighbourTerm t;
+    const Vec2 p = n.offset;
+    const double pm = p.norm();
+    if (pm <= 1e-12) return t;
+    const Vec2 dp = p / pm * (pm - q.radius - ctx.agents.radius[n.index]);
+    const Vec2 dvc = ctx.agents.vel[n.index] - v;
+    const Vec2 normal(-p.y(), p.x());
+    const Vec2 dv = dvc + normal * normal.dot(dvc);
+    const double dv2 = dv.squaredNorm();
+    const double ttca = dv2 == 0 ? 0.0 : std::max(0.0, -dp.dot(dv) / dv2);
+    const Vec2 atClosest = dp + dv * ttca;
+    const double dca = atClosest.norm();
+    const double st2 = sigmaTtca_ * sigmaTtca_, sd2 = sigmaDca_ * sigmaDca_;
+    t.cost = std::exp(-0.5 * (ttca * ttca / st2 + dca * dca / sd2));
+    t.weight = 1.0 / std::max(dp.squaredNorm(), 1e-12);
+    t.valid = true;
+    constexpr double kSmall = 1e-3;  // below this the derivatives are unreliable (UMANS' eps)
+    if (dv2 <= kSmall) {
+        t.derivable = false;
+        return t;
+    }
+    const Vec2 turned(dv.y(), -dv.x());
+    const Vec2 along = dv / std::sqrt(dv2);
+    double tHeading = 0, tSpeed = 0;
+    if (std::abs(ttca) > kSmall) {
+        const Vec2 rel = dp + 2 * ttca * dv;
+        tHeading = -rel.dot(turned) / dv2;
+        tSpeed = rel.dot(along) / dv2;
+    }
+    double dHeading = 0, dSpeed = 0;
+    if (dca > kSmall) {
+        dHeading = atClosest.dot(tHeading * dv + ttca * turned) / dca;
+        dSpeed = atClosest.dot(tSpeed * dv - ttca * along) / dca;
+    }
+    t.heading = -t.cost * (tHeading * ttca / st2 + dHeading * dca / sd2);
+    t.speed = -t.cost * (tSpeed * ttca / st2 + dSpeed * dca / sd2);
+    return t;
+}
+
+bool TtcaDca::inView(const AgentQuery& q, const NeighbourAgent& n) const {
+    // In front of the agent's current velocity (UMANS: a half-angle of fov/2 around it).
+    const double a = std::abs(turnAngle(q.velocity, n.offset));
+    return a <= 0.5 * fovDeg_ * kPi / 180.0;
+}
+
+double TtcaDca::umansCost(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const {
+    double sum = 0, weights = 0;
+    for (const NeighbourAgent& n : q.agents) {
+        if (n.distanceSquared() >= range_ * range_ || !inView(q, n)) continue;
+        const NeighbourTerm t = neighbourTerm(v, q, ctx, n);
+        if (!t.valid) continue;
+        sum += t.cost * t.weight;
+        weights += t.weight;
+    }
+    const double alpha = std::abs(turnAngle(v, q.prefVelocity));
+    const double ds = v.norm() - q.prefSpeed;
+    const double cm = 1.0 - 0.5 * (std::exp(-0.5 * alpha * alpha / (sigmaAngle_ * sigmaAngle_)) +
+                                   std::exp(-0.5 * ds * ds / (sigmaSpeed_ * sigmaSpeed_)));
+    return cm + (weights > 0 ? sum / weights : 0.0);
+}
+
+Vec2 TtcaDca::umansGradient(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const {
+    double heading = 0, speed = 0, weights = 0;
+    for (const NeighbourAgent& n : q.agents) {
+        if (n.distanceSquared() > range_ * range_ || !inView(q, n)) continue;
+        const NeighbourTerm t = neighbourTerm(v, q, ctx, n);
+        if (!t.valid || !t.derivable) continue;
+        heading += t.heading * t.weight;
+        speed += t.speed * t.weight;
+        weights += t.weight;
+    }
+    if (weights > 0) {
+        heading /= weights;
+        speed /= weights;
+    }
+    // The goal terms (paper eq. 14–15), with UMANS' factor 1/(2σ²).
+    const double alpha = turnAngle(v, q.prefVelocity);
+    const double ds = v.norm() - q.prefSpeed;
+    const double sa2 = sigmaAngle_ * sigmaAngle_, ss2 = sigmaSpeed_ * sigmaSpeed_;
+    heading += alpha / (2 * sa2) * std::exp(-0.5 * alpha * alpha / sa2);
+    speed += ds / (2 * ss2) * std::exp(-0.5 * ds * ds / ss2);
+    // Back to velocity space as UMANS does: a heading derivative h turns the velocity by the angle
+    // h (sideways sin h·|v|, backwards (1 − cos h)·|v|), a speed derivative acts along it. Nearly at
+    // rest the preferred velocity gives the frame, so the agent starts walking.
+    Vec2 dir = normalisedOrZero(v);
+    double s = v.norm();
+    if (v.squaredNorm() < 0.01) {
+        dir = normalisedOrZero(q.prefVelocity);
+        s = q.prefVelocity.norm();
+    }
+    const Vec2 right(dir.y(), -dir.x());
+    return right * (std::sin(heading) * s) + dir * ((1 - std::cos(heading)) * s + speed);
+}
+
 double TtcaDca::cost(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const {
+    if (vision_ == kVisionUmans) return umansCost(v, q, ctx);
     std::vector<Pixel> view;
     perceive(q, ctx, view);
     double obstacle = 0;
@@ -206,6 +320,7 @@ double TtcaDca::cost(const Vec2& v, const AgentQuery& q, const StepContext& ctx)
 }
 
 Vec2 TtcaDca::gradient(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const {
+    if (vision_ == kVisionUmans) return umansGradient(v, q, ctx);
     std::vector<Pixel> view;
     perceive(q, ctx, view);
     Vec2 g(0, 0);

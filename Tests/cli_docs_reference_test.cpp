@@ -1,7 +1,7 @@
 // docs/xml-reference.md carries a section generated from the registry (every cost function and
 // force with its parameter table). This test fails when that section differs from what the
 // program prints now, i.e. when a component was added or its table changed without running
-// scripts/gen-xml-reference.sh. It also checks the hand-written <CrowdHealth> and <Safety> tables
+// scripts/gen-xml-reference.sh. It also checks the hand-written <CrowdHealth>, <Safety> and <Simulation> tables
 // against the program's parameter tables. (Named cli_* so that CMake builds the program before it.)
 #define BOOST_TEST_MODULE docs_reference
 #include <boost/test/unit_test.hpp>
@@ -11,6 +11,7 @@
 #include <crowdhealth/health.h>
 #include <crowdhealth/registry.h>
 #include <crowdhealth/safety.h>
+#include <crowdhealth/xml.h>
 
 #include <string>
 #include <vector>
@@ -123,4 +124,20 @@ BOOST_AUTO_TEST_CASE(crowd_health_table_matches_the_layer) {
 
 BOOST_AUTO_TEST_CASE(safety_table_matches_the_program) {
     checkHandWrittenTable(ch::safetyTable(), "<Safety>");
+}
+
+BOOST_AUTO_TEST_CASE(simulation_table_rows_carry_the_loaders_unit_default_and_range) {
+    // The <Simulation> table has a type column and hand-written defaults for the attributes whose
+    // default is another attribute or "required"; the CrowdHealth attributes with a plain default
+    // (symmetry_breaking) must match the loader's table.
+    const std::vector<std::string> docLines = lines(readFile(docPath()));
+    for (const ch::ParamSpec& p : ch::simulationTable()) {
+        if (p.name != "symmetry_breaking") continue;
+        const std::string expected = "| `" + p.name + "` **[CH]** | real | " + p.unit + " | " + p.defaultText() +
+                                     " | " + p.rangeText() + " |";
+        bool found = false;
+        for (const std::string& l : docLines) found = found || l.rfind(expected, 0) == 0;
+        BOOST_TEST(found, "docs/xml-reference.md, section <Simulation>: the row of '" << p.name
+                              << "' should start with: " << expected);
+    }
 }

@@ -54,7 +54,10 @@ BOOST_AUTO_TEST_CASE(lone_agent_cruises_at_preferred_speed) {
     Simulation sim(spec);
     while (!sim.finished()) sim.stepCoarse();
     BOOST_TEST(std::abs(sim.agents().vel[0].norm() - 1.3) < 1e-6);
-    BOOST_TEST(std::abs(sim.agents().vel[0].y()) < 1e-12);
+    // Straight along x up to the symmetry breaking (Simulation@symmetry_breaking): while it starts
+    // from rest, slower than half its preferred speed, it is moved by up to 1e-6 m per step, and
+    // its goal direction turns by ~1e-7 rad (measured: |v_y| 4e-10 m/s; 0 without it).
+    BOOST_TEST(std::abs(sim.agents().vel[0].y()) < 1e-8);
 }
 
 BOOST_AUTO_TEST_CASE(social_pair_forces_are_equal_and_opposite) {

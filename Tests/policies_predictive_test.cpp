@@ -92,7 +92,11 @@ RunResult runPair(const std::string& model, Vec2 p0, Vec2 g0, Vec2 p1, Vec2 g1, 
 
 void checkAvoidance(const std::string& model, const RunResult& r, double dist) {
     BOOST_TEST(r.finite);
-    BOOST_TEST(r.maxOverlapRatio <= 0.10, model << ": overlap " << r.maxOverlapRatio << " of a radius");
+    // PLEdestrians ignores a neighbour it already overlaps, as UMANS does (overlap="ignore"): once
+    // the bodies touch, contact forces alone separate them, and the pair overlaps by ~0.2 of a
+    // radius (UMANS' own 1to1-180Degrees-PLEdestrians: 0.07 m, 0.23 of the radius).
+    const double allowed = model == "PLEdestrians" ? 0.25 : 0.10;
+    BOOST_TEST(r.maxOverlapRatio <= allowed, model << ": overlap " << r.maxOverlapRatio << " of a radius");
     // Standing still would trivially avoid overlaps: both must also reach their goals. The
     // encounter may cost a detour or a wait, so allow twice the lone-walk bound.
     const double bound = 2.0 * travelTimeBound(model, dist, 1.3, 0.3);
@@ -111,9 +115,9 @@ void checkAvoidance(const std::string& model, const RunResult& r, double dist) {
 BOOST_AUTO_TEST_CASE(registered_with_umans_names_and_parameters) {
     const std::map<std::string, std::vector<std::string>> expected = {
         {"Karamouzas", {"alpha", "beta", "gamma", "delta", "t_max"}},
-        {"Moussaid", {"d_max"}},
+        {"Moussaid", {"d_max", "overlap"}},
         {"PowerLaw", {"k", "tau0"}},
-        {"PLEdestrians", {"w_a", "w_b", "t_min", "t_max"}},
+        {"PLEdestrians", {"w_a", "w_b", "t_min", "t_max", "overlap"}},
     };
     const std::map<std::string, double> defaults = {{"alpha", 5},   {"beta", 0.5},  {"gamma", 1}, {"delta", 1},
                                                     {"d_max", 8},   {"k", 1.5},     {"tau0", 3},  {"w_a", 2.23},
@@ -377,15 +381,20 @@ BOOST_AUTO_TEST_CASE(moussaid_free_distance_and_choice) {
     const double at04 = c->cost({0.4, 0}, q2, ctx2);
     BOOST_TEST(at04 < c->cost({0.3, 0}, q2, ctx2));
     BOOST_TEST(at04 < c->cost({0.5, 0}, q2, ctx2));
-    // Overlapping neighbour: closing directions are blocked, but the cost stays finite (no NaN).
+    // Overlapping neighbour, overlap="closing": closing directions are blocked, but the cost stays
+    // finite (no NaN).
     Frame h;
     const int k = h.add({0, 0}, {10, 0}, {0, 0});
     h.add({0.5, 0}, {0.5, 0}, {0, 0});
     const StepContext ctx3 = h.context();
     const test::OwnedQuery q3 = h.query(k);
+    auto closing = make("Moussaid", {{"overlap", 1}});
     for (int a = 0; a < 360; a += 15) {
         const Vec2 v = rotated(Vec2(1.0, 0), a * kPi / 180);
-        BOOST_TEST(std::isfinite(c->cost(v, q3, ctx3)));
+        BOOST_TEST(std::isfinite(closing->cost(v, q3, ctx3)));
+        // The default, overlap="stop" (UMANS): no velocity has a finite cost, so the sampler keeps
+        // its base (the zero velocity) and the agent brakes until contact forces separate the pair.
+        BOOST_TEST(std::isinf(c->cost(v, q3, ctx3)));
     }
     BOOST_TEST(m.distanceToCollision({1, 0}, 1.3, q3, ctx3) == 0.0);
     BOOST_TEST(m.distanceToCollision({-1, 0}, 1.3, q3, ctx3) == 8.0);
@@ -515,7 +524,7 @@ BOOST_AUTO_TEST_CASE(pledestrians_closed_form_minimum) {
         Rng rng(11);
         for (int n = 0; n < 2000; ++n) {
             const Vec2 v(rng.uniform(-2, 2), rng.uniform(-2, 2));
-            BOOST_TEST_REQUIRE(best <= c->cost(v, q, ctx) + 1e-8);  // 1e-8: the tie-break term
+            BOOST_TEST_REQUIRE(best <= c->cost(v, q, ctx) + 1e-4);  // 1e-4: the tie-break term (1e-5·|v|)
         }
     }
     // Blocked: no closed form (the step samples instead).
@@ -524,4 +533,69 @@ BOOST_AUTO_TEST_CASE(pledestrians_closed_form_minimum) {
     g.add({1.0, 0}, {1.0, 0}, {0, 0});
     const StepContext ctx = g.context();
     BOOST_TEST(!c->globalMinimum(g.query(i), ctx).has_value());
+}
+
+// ---- what is already overlapped (UMANS' rule) ----------------------------------------------------
+
+BOOST_AUTO_TEST_CASE(overlapped_neighbours_are_ignored_by_default_as_in_umans) {
+    // An agent whose body overlaps a standing neighbour 0.5 m ahead (radii 0.3 m). UMANS' Karamouzas
+    // and PLEdestrians leave such a neighbour out of the time to collision (ignoreCurrentCollisions);
+    // overlap="closing" counts it as a collision now for velocities that close the gap.
+    Frame f;
+    const int i = f.add({0, 0}, {10, 0}, {0, 0});
+    f.add({0.5, 0}, {0.5, 0}, {0, 0});
+    const StepContext ctx = f.context();
+    const test::OwnedQuery q = f.query(i);
+    const Vec2 towards(1.3, 0), away(-1.3, 0);
+
+    auto ple = make("PLEdestrians");
+    auto pleClosing = make("PLEdestrians", {{"overlap", 1}});
+    const auto& p = dynamic_cast<const PLEdestrians&>(*ple);
+    const auto& pc = dynamic_cast<const PLEdestrians&>(*pleClosing);
+    BOOST_TEST(std::isinf(p.timeToFirstCollision(towards, q, ctx)));
+    BOOST_TEST(std::isfinite(ple->cost(towards, q, ctx)));
+    BOOST_TEST(pc.timeToFirstCollision(towards, q, ctx) == 0.0);
+    BOOST_TEST(std::isinf(pleClosing->cost(towards, q, ctx)));
+    BOOST_TEST(std::isinf(pc.timeToFirstCollision(away, q, ctx)));  // moving away is free either way
+
+    auto kar = make("Karamouzas");
+    auto karClosing = make("Karamouzas", {{"overlap", 1}});
+    const auto& k = dynamic_cast<const Karamouzas&>(*kar);
+    const auto& kc = dynamic_cast<const Karamouzas&>(*karClosing);
+    BOOST_TEST(std::isinf(k.timeToFirstCollision(towards, q, ctx)));
+    BOOST_TEST(kc.timeToFirstCollision(towards, q, ctx) == 0.0);
+}
+
+BOOST_AUTO_TEST_CASE(exact_right_angle_crossing_resolves_with_umans_overlap_rule) {
+    // UMANS' 1to1-90Degrees: two agents reach the crossing point at the same moment, mirror images
+    // of each other. With UMANS' rule (and the default symmetry breaking) they touch, ignore each
+    // other and pass: PLEdestrians both arrive after 17.8 s (UMANS: 17.4 s), Karamouzas after 12.2 s
+    // (UMANS: 12 s). With overlap="closing" PLEdestrians holds both up for ever (it did before this
+    // rule was UMANS').
+    auto crossing = [](const std::string& model, const std::map<std::string, double>& extra) {
+        PolicySpec p = umansPolicy(model);
+        for (const auto& [key, value] : extra) p.steps[0].components[0].params.set(key, value);
+        return run(scenario({agent(0, {-5, 0}, {5, 0}), agent(1, {0, 5}, {0, -5})}, {p}, 0.1, 40.0));
+    };
+    for (const std::string& model : {"PLEdestrians", "Karamouzas"}) {
+        BOOST_TEST_CONTEXT(model) {
+            const RunResult r = crossing(model, {});
+            BOOST_TEST_REQUIRE(r.arrival.size() == 2u, model << " did not let both arrive");
+            const double bound = model == std::string("PLEdestrians") ? 17.4 : 12.0;  // UMANS' mean arrival
+            for (const auto& [id, t] : r.arrival) BOOST_TEST(std::abs(t - bound) <= 0.35 * bound, "arrival " << t);
+        }
+    }
+    BOOST_TEST(crossing("PLEdestrians", {{"overlap", 1}}).arrival.size() < 2u);
+}
+
+BOOST_AUTO_TEST_CASE(pledestrians_side_preference_outweighs_symmetry_breaking) {
+    // UMANS' 1to1-180Degrees: an exact head-on pair, kept exactly point-symmetric by UMANS (its
+    // rounding is exact under negation), steps aside to its right and passes: both arrive at 12.5 s.
+    // Here the 1e-5 right-hand tie-break must decide the side even while the symmetry breaking
+    // perturbs the slowed-down agents (1e-6 m per step); with a 1e-9 tie-break the perturbation
+    // chose at random and the pair stalled until 18.3 s.
+    const RunResult r = run(scenario({agent(0, {-5, 0}, {5, 0}), agent(1, {5, 0}, {-5, 0})},
+                                     {umansPolicy("PLEdestrians")}, 0.1, 40.0));
+    BOOST_TEST_REQUIRE(r.arrival.size() == 2u);
+    for (const auto& [id, t] : r.arrival) BOOST_TEST(t <= 12.5 * 1.1, "agent " << id << " arrived at " << t << " s");
 }

@@ -23,6 +23,11 @@ void StepContext::segmentsNear(std::size_t i, double radius, std::vector<int>& o
 }
 
 double timeToFirstCollision(const Vec2& v, const AgentQuery& q, const StepContext& ctx, double range) {
+    return timeToFirstCollision(v, q, ctx, range, OverlapRule::Closing);
+}
+
+double timeToFirstCollision(const Vec2& v, const AgentQuery& q, const StepContext& ctx, double range, OverlapRule rule) {
+    const bool closing = rule == OverlapRule::Closing;
     const AgentStore& A = ctx.agents;
     double first = kInf;
     for (const NeighbourAgent& n : q.agents) {
@@ -31,7 +36,7 @@ double timeToFirstCollision(const Vec2& v, const AgentQuery& q, const StepContex
         const Vec2& vj = A.vel[n.index];
         const double rj = A.radius[n.index];
         if (d2 <= (q.radius + rj) * (q.radius + rj)) {
-            if ((v - vj).dot(n.offset) > 0) return 0.0;
+            if (closing && (v - vj).dot(n.offset) > 0) return 0.0;
             continue;
         }
         first = std::min(first, timeToCollision(Vec2(0, 0), v, q.radius, n.offset, vj, rj));
@@ -42,7 +47,7 @@ double timeToFirstCollision(const Vec2& v, const AgentQuery& q, const StepContex
         const double d2 = toWall.squaredNorm();
         if (d2 > range * range) continue;
         if (d2 <= q.radius * q.radius) {
-            if (v.dot(toWall) > 0) return 0.0;
+            if (closing && v.dot(toWall) > 0) return 0.0;
             continue;
         }
         first = std::min(first, timeToCollisionSegment(q.position, v, q.radius, seg.a, seg.b));

@@ -3,6 +3,7 @@
 
 #include "crowdhealth/kernels.h"
 #include "crowdhealth/parallel.h"
+#include "crowdhealth/rng.h"
 
 #include <omp.h>
 
@@ -305,6 +306,26 @@ void Simulation::setPreferredVelocities() {
     }
 }
 
+Vec2 Simulation::symmetryJitter(std::size_t i) const {
+    // Exactly symmetric scenarios (agents on a circle, mirror-image crossings) stay symmetric in
+    // double precision, and some models then deadlock for ever; UMANS' single precision breaks the
+    // tie with rounding noise (a float position a few metres from the origin is rounded by up to
+    // ~5e-7 m every step). Here an agent that is held up — it wants to walk (has a preferred
+    // velocity) but moves slower than half its preferred speed — has its new position moved by a
+    // point uniform in a disc of radius ε, drawn from (seed, agent id, fine step): no shared state,
+    // so the same bits with any thread count or agent order. Agents walking freely are left
+    // exactly as they are, so a symmetric encounter that resolves by itself (a head-on pair that
+    // both step aside) stays symmetric, as in UMANS, whose rounding is exact under negation.
+    const double eps = spec_.symmetryBreaking;
+    if (!(eps > 0) || agents_.prefVel[i].squaredNorm() == 0) return Vec2(0, 0);
+    const double slow = kHeldUpFraction * agents_.prefSpeed[i];
+    if (agents_.vel[i].squaredNorm() >= slow * slow) return Vec2(0, 0);
+    Rng rng(spec_.seed, static_cast<std::uint64_t>(agents_.id[i]), fineSteps_, kStreamSymmetry);
+    const double angle = rng.uniform(0, 2 * kPi);
+    const double r = eps * std::sqrt(rng.uniform());
+    return Vec2(r * std::cos(angle), r * std::sin(angle));
+}
+
 void Simulation::evaluateAgents(bool coarseBoundary) {
     const std::size_t n = agents_.size();
 #pragma omp parallel if (parallelNeighbourLoop(n))
@@ -361,7 +382,7 @@ void Simulation::integrate() {
         }
         v += umansContact_[i] * dtFine_;
         nextVel_[i] = v;
-        nextPos_[i] = world_.wrap(agents_.pos[i] + v * dtFine_);
+        nextPos_[i] = world_.wrap(agents_.pos[i] + v * dtFine_ + symmetryJitter(i));
         // UMANS' viewing direction: mostly the velocity, partly the preferred velocity.
         const Vec2 look = (2.0 * v + agents_.prefVel[i]) / 3.0;
         nextView_[i] = look.squaredNorm() > 0.01 ? Vec2(look.normalized()) : agents_.viewDir[i];

@@ -441,21 +441,6 @@ void readBlock(LoadContext& ctx, const std::string& file, const XMLElement* el, 
 // ---------------------------------------------------------------------------------------------
 // <Simulation>, <World>, <Output>
 
-const ParamTable& simulationTable() {
-    static const ParamTable t = [] {
-        ParamTable table = {
-            ParamSpec::real("delta_time", "s", 0.1, 0, 1e300, "coarse time step (UMANS' only step)"),
-            ParamSpec::real("delta_time_fine", "s", 0, 0, 1e300,
-                            "fine time step of force-based steps; delta_time must be a whole multiple"),
-            ParamSpec::real("end_time", "s", -1, 0, 1e300,
-                            "simulated duration; absent: until every agent has left"),
-        };
-        for (ParamSpec& p : table) p.minExclusive = true;
-        return table;
-    }();
-    return t;
-}
-
 const ParamTable& worldTable() {
     static const ParamTable t = [] {
         ParamTable table = {
@@ -650,6 +635,7 @@ void readSimulation(LoadContext& ctx, const std::string& file, const XMLElement*
     const auto fine = r.optional("delta_time_fine");
     if (fine) s.deltaTimeFine = *fine;
     if (const auto end = r.optional("end_time")) s.endTime = *end;
+    s.symmetryBreaking = r.value("symmetry_breaking");
     if (dt && fine) {
         // Whole number of fine steps per coarse step, with a relative tolerance for decimal input.
         const double ratio = *dt / *fine;
@@ -799,6 +785,25 @@ void checkResources(LoadContext& ctx, const std::string& path, const SourceLoc& 
 }  // namespace
 
 }  // namespace xmlio
+
+const ParamTable& simulationTable() {
+    static const ParamTable t = [] {
+        ParamTable table = {
+            ParamSpec::real("delta_time", "s", 0.1, 0, 1e300, "coarse time step (UMANS' only step)"),
+            ParamSpec::real("delta_time_fine", "s", 0, 0, 1e300,
+                            "fine time step of force-based steps; delta_time must be a whole multiple"),
+            ParamSpec::real("end_time", "s", -1, 0, 1e300,
+                            "simulated duration; absent: until every agent has left"),
+        };
+        for (ParamSpec& p : table) p.minExclusive = true;
+        table.push_back(ParamSpec::real(
+            "symmetry_breaking", "m", ScenarioSpec::kDefaultSymmetryBreaking, 0, 0.01,
+            "largest seeded displacement per step of an agent slower than half its preferred speed, breaks "
+            "exact symmetries; 0 = off"));
+        return table;
+    }();
+    return t;
+}
 
 std::optional<ScenarioSpec> loadScenario(const std::string& path, Diagnostics& diags, const LoadOptions& options) {
     using namespace xmlio;

@@ -111,6 +111,15 @@ enum class ComponentKind { CostFunction, Force };
 /// agent in contact can always move away. Shared by the time-to-collision models.
 double timeToFirstCollision(const Vec2& v, const AgentQuery& q, const StepContext& ctx, double range);
 
+/// What a time-to-collision model makes of a neighbour or wall the agent already overlaps.
+enum class OverlapRule {
+    Closing,  ///< an immediate collision (0) for velocities that close the gap (timeToFirstCollision above)
+    Ignore,   ///< left out altogether: contact forces separate the pair (UMANS' ignoreCurrentCollisions)
+};
+
+/// timeToFirstCollision with the given rule for what is overlapped already.
+double timeToFirstCollision(const Vec2& v, const AgentQuery& q, const StepContext& ctx, double range, OverlapRule rule);
+
 /// Base of every cost function and force. Subclasses bind their parameters in the constructor
 /// with `bind()`, so schedules can change them while running (`setParameter`).
 class Component {

@@ -39,6 +39,7 @@ enum RngStream : std::uint64_t {
     kStreamCostFunction = 2,
     kStreamSpawn = 3,
     kStreamPanic = 4,
+    kStreamSymmetry = 5,  ///< symmetry breaking of the preferred direction (ScenarioSpec::symmetryBreaking)
     kStreamUser = 100  ///< first id free for new components
 };
 

@@ -216,6 +216,14 @@ struct ScenarioSpec {
     double deltaTimeFine = 0; ///< fine step (s); 0 = same as deltaTime
     double endTime = -1;      ///< s; < 0 = run until every agent has left (or --end-time)
     std::uint64_t seed = 1;
+    /// Symmetry breaking (m; Simulation@symmetry_breaking): every fine step each agent that is held
+    /// up (wants to walk but moves slower than half its preferred speed) has its new position moved
+    /// by a point drawn uniformly from a disc of this radius, keyed by (seed, agent id, step), so
+    /// exactly symmetric scenarios (UMANS' circles and crossings) do not deadlock in double
+    /// precision. 0 switches it off. Default 1e-6 m: the order of the rounding of UMANS'
+    /// single-precision positions, far below anything measured (docs/policies.md).
+    static constexpr double kDefaultSymmetryBreaking = 1e-6;
+    double symmetryBreaking = kDefaultSymmetryBreaking;
     WorldSpec world;
     std::vector<ObstacleSpec> obstacles;
     std::vector<PolicySpec> policies;

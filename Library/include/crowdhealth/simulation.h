@@ -125,6 +125,11 @@ private:
     void timed(Phase p, F&& f);
     StepContext contextFor(const PolicyStep& s) const;
     void setPreferredVelocities();
+    /// The tiny seeded displacement added to agent i's new position when it is held up
+    /// (ScenarioSpec::symmetryBreaking).
+    Vec2 symmetryJitter(std::size_t i) const;
+    /// Symmetry breaking acts on agents slower than this fraction of their preferred speed.
+    static constexpr double kHeldUpFraction = 0.5;
     /// Phase 3: every agent's policy steps on its neighbourhood (fills fineAccel_, stopped_,
     /// umansContact_, nextContact_ and, at a coarse boundary, heldAccel_).
     void evaluateAgents(bool coarseBoundary);

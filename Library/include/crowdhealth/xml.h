@@ -2,6 +2,7 @@
 #pragma once
 
 #include "crowdhealth/diagnostics.h"
+#include "crowdhealth/params.h"
 #include "crowdhealth/scenario.h"
 
 #include <cstdint>
@@ -21,5 +22,9 @@ struct LoadOptions {
 /// std::nullopt when there was at least one error. Nothing is simulated or written.
 std::optional<ScenarioSpec> loadScenario(const std::string& path, Diagnostics& diags,
                                          const LoadOptions& options = {});
+
+/// The attributes of <Simulation> with their units, defaults and ranges (the loader's table; the
+/// hand-written table of docs/xml-reference.md is checked against it).
+const ParamTable& simulationTable();
 
 }  // namespace ch
