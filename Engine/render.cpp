@@ -510,8 +510,15 @@ std::string gnuplotScript(const RenderOptions& o, const ch::ScenarioSpec& spec, 
                 std::snprintf(name, sizeof name, "frame_%04zu.png", k);
                 g << "set output '" << name << "'\n";
             }
-            g << "set title \"t = " << num(std::round(frames[k].time * 1000) / 1000) << " s    " << title << "    "
-              << frames[k].agents.size() << " agents\"\n";
+            // Single-quoted (gpString): a scenario named with " or \ does not break the script.
+            std::string heading = "t = ";
+            heading += num(std::round(frames[k].time * 1000) / 1000);
+            heading += " s    ";
+            heading += title;
+            heading += "    ";
+            heading += std::to_string(frames[k].agents.size());
+            heading += " agents";
+            g << "set title " << chplot::gpString(heading) << "\n";
             g << "plot 'render-data.txt' index " << k
               << " using 4:5:6:8 with circles lc rgb variable lw 0.5\n";
         }
