@@ -33,6 +33,9 @@ struct Options {
     /// --plot: after the run(s), draw fig3.png, health.png, schedule.png and heatmap.png into
     /// the output folder (plot.h).
     bool plot = false;
+    /// --overwrite: run into OUTDIR even when it holds files crowdhealth did not write (they are
+    /// kept; files named as this run's outputs are replaced). See output_folder.h.
+    bool overwrite = false;
     bool quiet = false;
     ListFormat format = ListFormat::Text;
     /// Hidden, for tests: raise SIGINT after this many coarse steps (exercises the real

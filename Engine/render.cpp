@@ -7,6 +7,8 @@
 // mapping (recorded in render.json, so tests and tools can find an agent's pixel).
 #include "render.h"
 
+#include "output_folder.h"
+
 #include "plot_gnuplot.h"
 
 #include "exit_codes.h"
@@ -709,6 +711,19 @@ int renderCommand(int argc, char* argv[]) {
     } catch (const std::exception& e) {
         std::cerr << "crowdhealth render: error: " << e.what() << "\n";
         return kExitRuntime;
+    }
+    // Drawn into a run folder (one with a manifest): the files join it, so the next run into the
+    // folder replaces them rather than refusing them or leaving them stale.
+    {
+        std::vector<std::string> names = {"render-data.txt", "render.gp", "render.json"};
+        for (std::size_t k = 0; k < frames.size(); ++k) {
+            char name[32];
+            std::snprintf(name, sizeof name, "frame_%04zu.png", k);
+            names.push_back(name);
+        }
+        if (gif) names.push_back("animation.gif");
+        if (mp4) names.push_back("animation.mp4");
+        addToManifest(out, names);
     }
     if (!o.quiet) {
         std::cout << "Drew " << frames.size() << (frames.size() == 1 ? " frame" : " frames") << " ("
