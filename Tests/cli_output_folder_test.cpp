@@ -107,13 +107,17 @@ BOOST_AUTO_TEST_CASE(nothing_outside_the_manifest_is_ever_deleted) {
     const fs::path dir = freshDir(caseName());
     BOOST_REQUIRE(runInto(dir, "out").status == 0);
     // A manifest that names files outside its folder, or a folder it never wrote, is not obeyed.
+    // (Only files of this test's own folder are named: if the rule broke, nothing else is lost.)
     std::ofstream(dir / "victim.txt") << "keep\n";
+    std::ofstream(dir / "absolute.txt") << "keep\n";
     fs::create_directories(dir / "out" / "sub");
     std::ofstream(dir / "out" / "sub" / "keep.txt") << "keep\n";
-    std::ofstream(dir / "out" / ".crowdhealth-manifest", std::ios::app) << "../victim.txt\n/etc/hostname\nsub/\n";
+    std::ofstream(dir / "out" / ".crowdhealth-manifest", std::ios::app)
+        << "../victim.txt\n" << (dir / "absolute.txt").string() << "\nsub/\n";
     const Result r = runInto(dir, "out", {"--overwrite"});
     BOOST_TEST(r.status == 0, r.err);
     BOOST_TEST(fs::exists(dir / "victim.txt"));
+    BOOST_TEST(fs::exists(dir / "absolute.txt"));
     BOOST_TEST(readFile(dir / "out" / "sub" / "keep.txt") == "keep\n");  // "sub/" had no manifest of ours
 }
 
