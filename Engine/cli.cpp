@@ -79,7 +79,8 @@ po::options_description visibleOptions() {
 
 po::options_description hiddenOptions() {
     po::options_description d("Hidden");
-    d.add_options()("debug-interrupt-after", po::value<std::string>(), "raise SIGINT after N coarse steps");
+    d.add_options()("debug-interrupt-after", po::value<std::string>(), "raise SIGINT after N coarse steps")(
+        "debug-kill-before-summary", "raise SIGKILL once every output but summary.json is written");
     return d;
 }
 
@@ -257,6 +258,7 @@ std::optional<Options> parseCommandLine(int argc, const char* const argv[], std:
                             std::to_string(*o.flowFirst) + ")");
         return std::nullopt;
     }
+    o.killBeforeSummary = vm.count("debug-kill-before-summary") != 0;
     if (vm.count("debug-interrupt-after")) {
         std::uint64_t n = 0;
         if (!parseUnsigned(str("debug-interrupt-after"), n)) {

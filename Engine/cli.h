@@ -41,6 +41,9 @@ struct Options {
     /// Hidden, for tests: raise SIGINT after this many coarse steps (exercises the real
     /// Ctrl-C path deterministically, without timing).
     std::optional<std::uint64_t> interruptAfterSteps;
+    /// Hidden, for tests: SIGKILL itself while writing the outputs, after every file but
+    /// summary.json (the state a run killed at that instant leaves).
+    bool killBeforeSummary = false;
 };
 
 /// Parses argv. On success returns the options; on a usage error prints a message (and a hint

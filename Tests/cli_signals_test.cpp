@@ -143,3 +143,27 @@ BOOST_AUTO_TEST_CASE(sigint_stops_every_run_of_replications_cleanly) {
     BOOST_TEST(rows[2].substr(rows[2].size() - 5) == ",true");
     BOOST_TEST(manifestOf(out) == (std::vector<std::string>{"run_000/", "run_001/", "summary.csv"}));
 }
+
+BOOST_AUTO_TEST_CASE(a_run_killed_while_writing_leaves_no_file_the_next_run_would_not_know) {
+    // The program's hidden --debug-kill-before-summary sends itself SIGKILL after writing every
+    // output but summary.json: the instant a kill while writing is most damaging.
+    const fs::path dir = freshDir(caseName());
+    Result r = run(dir, {"-i", testData("evacuation.xml"), "-o", "out", "-q", "-t", "1"});
+    BOOST_REQUIRE_MESSAGE(r.status == 0, r.err);
+    const std::string summary = readFile(dir / "out" / "summary.json");
+    r = run(dir, {"-i", testData("evacuation.xml"), "-o", "out", "-q", "-t", "1", "--end-time", "2",
+                  "--trajectories", "umans,txt", "--debug-kill-before-summary"});
+    BOOST_TEST((r.status == 128 + SIGKILL || r.status == -1), r.status << " " << r.err);  // killed (the shell says 137)
+    // The new files are whole, summary.json is still the earlier run's (it is written last).
+    BOOST_TEST(fs::exists(dir / "out" / "trajectories.txt"));
+    BOOST_TEST(fs::exists(dir / "out" / "output_0.csv"));
+    BOOST_TEST(readFile(dir / "out" / "summary.json") == summary);
+    BOOST_TEST(lines(readFile(dir / "out" / "metrics.csv")).back().rfind("2,", 0) == 0u);
+    // The manifest already listed the files being written: the next run knows them all, is not
+    // refused, and removes those it does not write.
+    r = run(dir, {"-i", testData("evacuation.xml"), "-o", "out", "-q", "-t", "1"});
+    BOOST_TEST(r.status == 0, r.err);
+    BOOST_TEST(!fs::exists(dir / "out" / "trajectories.txt"));
+    BOOST_TEST(!fs::exists(dir / "out" / "output_0.csv"));
+    BOOST_TEST(manifestOf(dir / "out").size() == 5u);
+}
