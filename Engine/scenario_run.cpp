@@ -248,6 +248,7 @@ RunOutcome simulateAndWrite(ch::Simulation& sim, const RunPlan& plan, const fs::
         ch::writeFileAtomic(outDir / "health.csv", ch::healthCsv(sim.health()));
         ch::writeFileAtomic(outDir / "heatmap.csv", safety.heatmapCsv());
         if (trajectory) trajectory->commit();
+        if (o.killBeforeSummary) std::raise(SIGKILL);  // tests: a kill at the worst instant
         ch::writeFileAtomic(outDir / "summary.json", ch::summaryJson(sim, result.info, result.peaks, &result.verdict));
         // Then the earlier run's files that this one did not write go, and the manifest lists
         // exactly this run's files.
