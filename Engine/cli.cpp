@@ -64,6 +64,8 @@ po::options_description visibleOptions() {
          "trajectory_interval>)")
         ("plot", "after the run(s), draw fig3.png, health.png, schedule.png and heatmap.png into "
          "OUTDIR with gnuplot (the same as 'crowdhealth plot OUTDIR' later)")
+        ("overwrite", "write into OUTDIR even if it holds files crowdhealth did not write: they are "
+         "kept, files named as this run's outputs are replaced (without it such a folder is refused)")
         ("quiet,q", "no progress bar and no closing summary")
         ("check", "validate the scenario (load and build it), print a one-line summary, write nothing")
         ("list-policies", "list every registered cost function and force with its parameters")
@@ -77,7 +79,8 @@ po::options_description visibleOptions() {
 
 po::options_description hiddenOptions() {
     po::options_description d("Hidden");
-    d.add_options()("debug-interrupt-after", po::value<std::string>(), "raise SIGINT after N coarse steps");
+    d.add_options()("debug-interrupt-after", po::value<std::string>(), "raise SIGINT after N coarse steps")(
+        "debug-kill-before-summary", "raise SIGKILL once every output but summary.json is written");
     return d;
 }
 
@@ -103,14 +106,22 @@ void printHelp(std::ostream& out) {
            "Each folder holds the files of a single run, identical to a run with --seed S+k.\n"
            "OUTDIR/summary.csv has one row per run (seed, evacuated, evacuation time, flow,\n"
            "peaks, mean density at t = 15 s, interrupted), then the rows 'mean', 'sd' (sample,\n"
-           "N-1) and 'n' (the runs each uses: those not interrupted, with a value there).\n\n";
+           "N-1) and 'n' (the runs each uses: those not interrupted, with a value there).\n\n"
+           "OUTDIR: each folder written holds .crowdhealth-manifest, the list of the files the\n"
+           "run wrote. A new run into it replaces exactly those (outputs of the earlier run that\n"
+           "this one does not write are removed) and deletes nothing else. A folder holding files\n"
+           "crowdhealth did not write is refused (exit 2) unless --overwrite is given.\n"
+           "Files are written to NAME.tmp and renamed when complete; summary.json comes last.\n"
+           "Ctrl-C or SIGTERM stops after the current step and writes the outputs for the time\n"
+           "simulated (every run of --replications); a second Ctrl-C kills at once.\n\n";
     out << visibleOptions() << "\n";
     out << "Exit status:\n"
            "  0    success\n"
            "  1    runtime failure (e.g. OUTDIR cannot be written; with --replications, a run\n"
            "       failed)\n"
-           "  2    bad command line or scenario errors (printed as path:line: error: ...);\n"
-           "       nothing is simulated or written\n"
+           "  2    bad command line, scenario errors (printed as path:line: error: ...), or\n"
+           "       OUTDIR holds files crowdhealth did not write (see --overwrite); nothing is\n"
+           "       simulated or written\n"
            "  130  interrupted by Ctrl-C (SIGINT) or SIGTERM; outputs cover the time simulated\n";
 }
 
@@ -163,6 +174,7 @@ std::optional<Options> parseCommandLine(int argc, const char* const argv[], std:
     o.command = vm.count("check") ? Command::Check : Command::Run;
     o.quiet = vm.count("quiet") != 0;
     o.plot = vm.count("plot") != 0;
+    o.overwrite = vm.count("overwrite") != 0;
     if (o.plot && o.command == Command::Check) {
         usageError(err, "--plot cannot be combined with --check (nothing is run to plot)");
         return std::nullopt;
@@ -246,6 +258,7 @@ std::optional<Options> parseCommandLine(int argc, const char* const argv[], std:
                             std::to_string(*o.flowFirst) + ")");
         return std::nullopt;
     }
+    o.killBeforeSummary = vm.count("debug-kill-before-summary") != 0;
     if (vm.count("debug-interrupt-after")) {
         std::uint64_t n = 0;
         if (!parseUnsigned(str("debug-interrupt-after"), n)) {

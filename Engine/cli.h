@@ -33,11 +33,17 @@ struct Options {
     /// --plot: after the run(s), draw fig3.png, health.png, schedule.png and heatmap.png into
     /// the output folder (plot.h).
     bool plot = false;
+    /// --overwrite: run into OUTDIR even when it holds files crowdhealth did not write (they are
+    /// kept; files named as this run's outputs are replaced). See output_folder.h.
+    bool overwrite = false;
     bool quiet = false;
     ListFormat format = ListFormat::Text;
     /// Hidden, for tests: raise SIGINT after this many coarse steps (exercises the real
     /// Ctrl-C path deterministically, without timing).
     std::optional<std::uint64_t> interruptAfterSteps;
+    /// Hidden, for tests: SIGKILL itself while writing the outputs, after every file but
+    /// summary.json (the state a run killed at that instant leaves).
+    bool killBeforeSummary = false;
 };
 
 /// Parses argv. On success returns the options; on a usage error prints a message (and a hint

@@ -3,6 +3,7 @@
 
 #include "exit_codes.h"
 #include "plot.h"
+#include "output_folder.h"
 #include "plot_gnuplot.h"
 
 #include <crowdhealth/output.h>
@@ -326,6 +327,8 @@ int compareCommand(int argc, char* argv[]) {
         fs::create_directories(outDir);
         ch::writeFileAtomic(outDir / "compare.md", md);
         ch::writeFileAtomic(outDir / "compare.csv", chplot::compareCsv(rows));
+        addToManifest(outDir / "compare.md");  // into a run folder: its manifest lists them
+        addToManifest(outDir / "compare.csv");
     } catch (const std::exception& e) {
         std::cerr << "crowdhealth compare: error: cannot write to " << outDir.string() << ": " << e.what() << "\n";
         return kExitRuntime;
@@ -341,6 +344,7 @@ int compareCommand(int argc, char* argv[]) {
         std::cerr << "crowdhealth compare: error: " << err << "\n";
         return kExitRuntime;
     }
+    addToManifest(outDir / "compare.png");
     if (!quiet) std::cout << "  plot    " << (outDir / "compare.png").string() << "\n";
     return kExitOk;
 }

@@ -1,6 +1,8 @@
 // crowdhealth plot — see plot.h and docs/crowd-health.md ("Plots").
 #include "plot.h"
 
+#include "output_folder.h"
+
 #include "exit_codes.h"
 
 #include <crowdhealth/output.h>
@@ -395,6 +397,16 @@ int plotOutputs(const std::filesystem::path& dir, bool quiet) {
     std::vector<std::filesystem::path> written;
     std::vector<std::string> errors, notes;
     chplot::drawExperiment(e, written, errors, notes);
+    // Into a run folder (one with a manifest): the figures join its manifest, so the next run
+    // into it replaces them too rather than refusing them or leaving them stale.
+    for (const std::filesystem::path& png : written) {
+        if (addToManifest(png)) continue;
+        std::string message = "cannot add ";
+        message += png.filename().string();
+        message += " to ";
+        message += (png.parent_path() / kManifestName).string();
+        errors.push_back(std::move(message));
+    }
     if (!quiet) {
         std::cout << "  plots           ";
         for (std::size_t i = 0; i < written.size(); ++i)

@@ -1,8 +1,7 @@
 // crowdhealth plot / compare — reading run folders (see plot_data.h).
 #include "plot_data.h"
 
-#include <boost/property_tree/json_parser.hpp>
-#include <boost/property_tree/ptree.hpp>
+#include <crowdhealth/json.h>
 
 #include <algorithm>
 #include <charconv>
@@ -51,29 +50,33 @@ double parseCell(const std::string& s) {
     return v;
 }
 
-std::optional<double> jsonOptionalNumber(const boost::property_tree::ptree& tree, const std::string& path) {
-    const auto v = tree.get_optional<std::string>(boost::property_tree::ptree::path_type(path, '.'));
-    if (!v || v->empty() || *v == "null") return std::nullopt;
-    const double d = parseCell(*v);
-    if (!std::isfinite(d)) return std::nullopt;
-    return d;
-}
-
+/// summary.json through the JSON library. Absent: not present. Present but broken (not JSON, a
+/// key of the wrong type): throws ch::JsonError naming the file and what is wrong.
 RunSummary readSummary(const fs::path& file) {
     RunSummary s;
     if (!fs::exists(file)) return s;
-    boost::property_tree::ptree tree;
-    try {
-        boost::property_tree::read_json(file.string(), tree);
-    } catch (const std::exception&) {
-        return s;  // an unreadable summary is treated as absent
-    }
+    const ch::Json tree = ch::readJsonFile(file);
+    if (!tree.is_object()) throw ch::JsonError(file.string() + ": expected a JSON object, not " + std::string(tree.type_name()));
+    auto text = [&](const ch::Json& object, const char* key, const std::string& where) -> std::string {
+        const auto it = object.find(key);
+        if (it == object.end() || it->is_null()) return "";
+        if (!it->is_string()) throw ch::JsonError(file.string() + ": \"" + where + "\" should be a string, not " + it->dump());
+        return it->get<std::string>();
+    };
+    auto finite = [](std::optional<double> v) { return v && std::isfinite(*v) ? v : std::nullopt; };
     s.present = true;
-    s.scenario = tree.get<std::string>("scenario", "");
-    s.evacuationTime = jsonOptionalNumber(tree, "evacuation_time");
-    s.flow = jsonOptionalNumber(tree, "flow.persons_per_second");
-    s.interrupted = tree.get<std::string>("interrupted", "false") == "true";
-    s.verdict = tree.get<std::string>("verdict.level", "");
+    s.scenario = text(tree, "scenario", "scenario");
+    s.evacuationTime = finite(ch::jsonOptionalNumber(tree, "evacuation_time", file));
+    if (const auto flow = tree.find("flow"); flow != tree.end() && !flow->is_null())
+        s.flow = finite(ch::jsonOptionalNumber(*flow, "persons_per_second", file));
+    if (const auto it = tree.find("interrupted"); it != tree.end() && !it->is_null()) {
+        if (!it->is_boolean()) throw ch::JsonError(file.string() + ": \"interrupted\" should be true or false, not " + it->dump());
+        s.interrupted = it->get<bool>();
+    }
+    if (const auto verdict = tree.find("verdict"); verdict != tree.end() && !verdict->is_null()) {
+        if (!verdict->is_object()) throw ch::JsonError(file.string() + ": \"verdict\" should be an object, not " + verdict->dump());
+        s.verdict = text(*verdict, "level", "verdict.level");
+    }
     return s;
 }
 
@@ -92,7 +95,11 @@ std::string loadRun(const fs::path& dir, RunData& run) {
         if (std::string e = readCsv(dir / "heatmap.csv", t); !e.empty()) return e;
         run.heatmap = std::move(t);
     }
-    run.summary = readSummary(dir / "summary.json");
+    try {
+        run.summary = readSummary(dir / "summary.json");
+    } catch (const ch::JsonError& e) {
+        return e.what();
+    }
     return "";
 }
 

@@ -7,12 +7,15 @@
 // mapping (recorded in render.json, so tests and tools can find an agent's pixel).
 #include "render.h"
 
+#include "output_folder.h"
+
 #include "plot_gnuplot.h"
 
 #include "exit_codes.h"
 #include "render_scene.h"
 #include "trajectory_read.h"
 
+#include <crowdhealth/json.h>
 #include <crowdhealth/output.h>
 #include <crowdhealth/simulation.h>
 #include <crowdhealth/world.h>
@@ -98,19 +101,6 @@ double niceLength(double span) {
     return p;
 }
 
-std::string jsonUnescape(const std::string& s) {
-    std::string out;
-    for (std::size_t i = 0; i < s.size(); ++i) {
-        if (s[i] == '\\' && i + 1 < s.size()) {
-            const char c = s[++i];
-            out += c == 'n' ? '\n' : c == 't' ? '\t' : c;
-        } else {
-            out += s[i];
-        }
-    }
-    return out;
-}
-
 // ---- gathering frames ------------------------------------------------------------------------
 
 /// The times to draw: T alone, or 0, S, 2S, … up to T (or up to `until`).
@@ -177,17 +167,20 @@ std::optional<ch::ScenarioSpec> replaySpec(const RenderOptions& o) {
                   << " is not a run folder (no summary.json); give the -o folder of `crowdhealth -i … -o …`\n";
         return std::nullopt;
     }
-    std::ifstream in(summary);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    const std::string json = ss.str();
-    std::smatch m;
-    static const std::regex scen("\"scenario\"\\s*:\\s*\"((?:[^\"\\\\]|\\\\.)*)\"");
-    if (!std::regex_search(json, m, scen)) {
-        std::cerr << "crowdhealth render: error: " << summary.string() << " names no \"scenario\"\n";
+    // Through the JSON library: a broken summary.json is reported with its path and what is wrong.
+    ch::Json json;
+    try {
+        json = ch::readJsonFile(summary);
+    } catch (const ch::JsonError& e) {
+        std::cerr << "crowdhealth render: error: " << e.what() << "\n";
         return std::nullopt;
     }
-    const fs::path named(jsonUnescape(m[1].str()));
+    const auto scenarioIt = json.is_object() ? json.find("scenario") : json.end();
+    if (scenarioIt == json.end() || !scenarioIt->is_string() || scenarioIt->get<std::string>().empty()) {
+        std::cerr << "crowdhealth render: error: " << summary.string() << " names no \"scenario\" (a string)\n";
+        return std::nullopt;
+    }
+    const fs::path named(scenarioIt->get<std::string>());
     fs::path path = named;
     if (named.is_relative() && !fs::exists(named)) {
         for (const fs::path& base : {dir, dir.parent_path()})
@@ -200,8 +193,14 @@ std::optional<ch::ScenarioSpec> replaySpec(const RenderOptions& o) {
     }
     // The same seed, so generated agents get the radii they had in the run.
     ch::LoadOptions lo;
-    static const std::regex seedRe("\"seed\"\\s*:\\s*([0-9]+)");
-    if (std::regex_search(json, m, seedRe)) lo.seed = std::stoull(m[1].str());
+    if (const auto seed = json.find("seed"); seed != json.end() && !seed->is_null()) {
+        if (!seed->is_number_unsigned()) {
+            std::cerr << "crowdhealth render: error: " << summary.string()
+                      << ": \"seed\" should be a whole number from 0 to 18446744073709551615, not " << seed->dump() << "\n";
+            return std::nullopt;
+        }
+        lo.seed = seed->get<std::uint64_t>();
+    }
     ch::Diagnostics diags;
     std::optional<ch::ScenarioSpec> spec;
     try {
@@ -431,8 +430,15 @@ std::string gnuplotScript(const RenderOptions& o, const ch::ScenarioSpec& spec, 
                 std::snprintf(name, sizeof name, "frame_%04zu.png", k);
                 g << "set output '" << name << "'\n";
             }
-            g << "set title \"t = " << num(std::round(frames[k].time * 1000) / 1000) << " s    " << title << "    "
-              << frames[k].agents.size() << " agents\"\n";
+            // Single-quoted (gpString): a scenario named with " or \ does not break the script.
+            std::string heading = "t = ";
+            heading += num(std::round(frames[k].time * 1000) / 1000);
+            heading += " s    ";
+            heading += title;
+            heading += "    ";
+            heading += std::to_string(frames[k].agents.size());
+            heading += " agents";
+            g << "set title " << chplot::gpString(heading) << "\n";
             g << "plot 'render-data.txt' index " << k
               << " using 4:5:6:8 with circles lc rgb variable lw 0.5\n";
         }
@@ -452,27 +458,28 @@ std::string gnuplotScript(const RenderOptions& o, const ch::ScenarioSpec& spec, 
 
 std::string renderJson(const RenderOptions& o, const std::string& scenario, const Layout& l,
                        const std::vector<Frame>& frames, double barMax, bool gif, bool mp4) {
-    std::ostringstream j;
-    j << "{\n  \"scenario\": " << ch::jsonString(scenario) << ",\n";
-    j << "  \"source\": " << ch::jsonString(o.replay.empty() ? "simulation" : "replay") << ",\n";
-    j << "  \"color\": " << ch::jsonString(chrender::colouringName(o.colouring)) << ",\n";
-    j << "  \"color_max\": " << ch::jsonNumber(barMax) << ",\n";
-    j << "  \"width\": " << l.width << ",\n  \"height\": " << l.height << ",\n";
-    j << "  \"view\": {\"xmin\": " << ch::jsonNumber(l.view.xmin) << ", \"xmax\": " << ch::jsonNumber(l.view.xmax)
-      << ", \"ymin\": " << ch::jsonNumber(l.view.ymin) << ", \"ymax\": " << ch::jsonNumber(l.view.ymax) << "},\n";
-    j << "  \"plot_pixels\": {\"left\": " << l.left << ", \"right\": " << l.width - l.right
-      << ", \"top\": " << l.top << ", \"bottom\": " << l.height - l.bottom << "},\n";
-    j << "  \"animation\": " << (gif ? "\"animation.gif\"" : "null") << ",\n";
-    j << "  \"video\": " << (mp4 ? "\"animation.mp4\"" : "null") << ",\n";
-    j << "  \"frames\": [";
+    ch::Json j;
+    j["scenario"] = scenario;
+    j["source"] = o.replay.empty() ? "simulation" : "replay";
+    j["color"] = chrender::colouringName(o.colouring);
+    j["color_max"] = ch::jsonNumber(barMax);
+    j["width"] = l.width;
+    j["height"] = l.height;
+    j["view"] = ch::Json{{"xmin", ch::jsonNumber(l.view.xmin)}, {"xmax", ch::jsonNumber(l.view.xmax)},
+                         {"ymin", ch::jsonNumber(l.view.ymin)}, {"ymax", ch::jsonNumber(l.view.ymax)}};
+    j["plot_pixels"] = ch::Json{{"left", l.left}, {"right", l.width - l.right},
+                                {"top", l.top}, {"bottom", l.height - l.bottom}};
+    j["animation"] = gif ? ch::Json("animation.gif") : ch::Json(nullptr);
+    j["video"] = mp4 ? ch::Json("animation.mp4") : ch::Json(nullptr);
+    ch::Json list = ch::Json::array();
     for (std::size_t k = 0; k < frames.size(); ++k) {
         char name[32];
         std::snprintf(name, sizeof name, "frame_%04zu.png", k);
-        j << (k ? ",\n" : "\n") << "    {\"file\": \"" << name << "\", \"time\": " << ch::jsonNumber(frames[k].time)
-          << ", \"agents\": " << frames[k].agents.size() << "}";
+        list.push_back(ch::Json{{"file", name}, {"time", ch::jsonNumber(frames[k].time)},
+                                {"agents", frames[k].agents.size()}});
     }
-    j << "\n  ]\n}\n";
-    return j.str();
+    j["frames"] = std::move(list);
+    return ch::jsonText(j);
 }
 
 void printRenderHelp(std::ostream& out, const po::options_description& desc) {
@@ -622,6 +629,19 @@ int renderCommand(int argc, char* argv[]) {
     } catch (const std::exception& e) {
         std::cerr << "crowdhealth render: error: " << e.what() << "\n";
         return kExitRuntime;
+    }
+    // Drawn into a run folder (one with a manifest): the files join it, so the next run into the
+    // folder replaces them rather than refusing them or leaving them stale.
+    {
+        std::vector<std::string> names = {"render-data.txt", "render.gp", "render.json"};
+        for (std::size_t k = 0; k < frames.size(); ++k) {
+            char name[32];
+            std::snprintf(name, sizeof name, "frame_%04zu.png", k);
+            names.push_back(name);
+        }
+        if (gif) names.push_back("animation.gif");
+        if (mp4) names.push_back("animation.mp4");
+        addToManifest(out, names);
     }
     if (!o.quiet) {
         std::cout << "Drew " << frames.size() << (frames.size() == 1 ? " frame" : " frames") << " ("

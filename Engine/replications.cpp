@@ -10,6 +10,7 @@
 #include "run.h"
 
 #include "exit_codes.h"
+#include "output_folder.h"
 #include "plot.h"
 #include "progress.h"
 #include "scenario_run.h"
@@ -174,9 +175,39 @@ int runReplications(const Options& o) {
     }
 
     const fs::path outDir(o.output);
+    std::vector<std::string> runNames(n);
+    for (std::size_t k = 0; k < n; ++k) runNames[k] = runFolderName(k, n);
+    // The folder and every run folder this will write into: files crowdhealth did not write
+    // there refuse the whole set (unless --overwrite) before anything is written.
+    if (!o.overwrite) {
+        OutputFolder top(outDir);
+        std::vector<std::string> unknown = top.unknownEntries();
+        for (std::size_t k = 0; k < n && unknown.size() < 100; ++k) {
+            if (!top.previous().count(runNames[k] + "/")) continue;  // absent, or already unknown above
+            for (const std::string& u : OutputFolder(outDir / runNames[k]).unknownEntries())
+                unknown.push_back(runNames[k] + "/" + u);
+        }
+        if (!unknown.empty()) {
+            std::cerr << "crowdhealth: error: " << unknownEntriesMessage(outDir, unknown) << "\n";
+            return kExitInput;
+        }
+    }
     if (const auto problem = outputFolderProblem(outDir)) {
         std::cerr << "crowdhealth: error: " << *problem << "\n";
         return kExitRuntime;
+    }
+    // The manifest lists every run folder before the first is created (a killed set leaves none
+    // the next run would not know); at the end it lists summary.csv and the folders written.
+    OutputFolder folder(outDir);
+    {
+        std::vector<std::string> planned = {"summary.csv"};
+        for (const std::string& r : runNames) planned.push_back(r + "/");
+        try {
+            folder.announce(planned);
+        } catch (const std::exception& e) {
+            std::cerr << "crowdhealth: error: cannot write the outputs: " << e.what() << "\n";
+            return kExitRuntime;
+        }
     }
 
     const unsigned hardware = std::max(1u, std::thread::hardware_concurrency());
@@ -185,7 +216,7 @@ int runReplications(const Options& o) {
 
     std::vector<RunRecord> records(n);
     for (std::size_t k = 0; k < n; ++k) {
-        records[k].row.run = runFolderName(k, n);
+        records[k].row.run = runNames[k];
         records[k].row.seed = firstSeed + k;
     }
     const std::unique_ptr<RunClock[]> clocks(new RunClock[n]);
@@ -212,6 +243,7 @@ int runReplications(const Options& o) {
         hooks.probeMeanDensityAt = kDensityProbeTime;
         const RunOutcome outcome = simulateAndWrite(*sim, *plan, dir, 1, o, hooks);
         if (!outcome.error.empty()) throw std::runtime_error(outcome.error);
+        for (const std::string& w : outcome.warnings) shared.say("crowdhealth: warning: " + name + ": " + w);
 
         ch::ReplicationRow& row = rec.row;
         row.evacuated = sim->evacuations().size();
@@ -313,6 +345,12 @@ int runReplications(const Options& o) {
     }
     try {
         ch::writeFileAtomic(outDir / "summary.csv", ch::replicationsCsv(rows));
+        // The run folders of an earlier set that this one did not write (more replications, or
+        // runs not started after Ctrl-C) go: their own files, never anything else.
+        std::vector<std::string> written = {"summary.csv"};
+        for (const RunRecord& rec : records)
+            if (rec.started) written.push_back(rec.row.run + "/");
+        for (const std::string& w : folder.settle(written)) std::cerr << "crowdhealth: warning: " << w << "\n";
     } catch (const std::exception& e) {
         std::cerr << "crowdhealth: error: cannot write the summary: " << e.what() << "\n";
         return kExitRuntime;

@@ -72,9 +72,9 @@ int runScenario(const Options& o) {
     if (!plan) return kExitInput;
 
     const fs::path outDir(o.output);
-    if (const auto problem = outputFolderProblem(outDir)) {
-        std::cerr << "crowdhealth: error: " << *problem << "\n";
-        return kExitRuntime;
+    if (const auto problem = checkOutputFolder(outDir, o.overwrite)) {
+        std::cerr << "crowdhealth: error: " << problem->message << "\n";
+        return problem->exitStatus;
     }
 
     const int threads = o.threads > 0 ? o.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
@@ -91,6 +91,7 @@ int runScenario(const Options& o) {
         std::cerr << "crowdhealth: error: " << outcome.error << "\n";
         return kExitRuntime;
     }
+    for (const std::string& w : outcome.warnings) std::cerr << "crowdhealth: warning: " << w << "\n";
     const ch::RunInfo& info = outcome.info;
 
     const std::size_t remaining = sim->agents().size() + sim->pending();

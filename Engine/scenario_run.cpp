@@ -1,6 +1,9 @@
 // crowdhealth — loading and running one scenario (see scenario_run.h).
 #include "scenario_run.h"
 
+#include "exit_codes.h"
+#include "output_folder.h"
+
 #include "run.h"
 #include "signals.h"
 
@@ -146,6 +149,15 @@ std::optional<std::string> outputFolderProblem(const fs::path& dir) {
     return std::nullopt;
 }
 
+std::optional<FolderProblem> checkOutputFolder(const fs::path& dir, bool overwrite) {
+    if (!overwrite) {
+        const std::vector<std::string> unknown = OutputFolder(dir).unknownEntries();
+        if (!unknown.empty()) return FolderProblem{unknownEntriesMessage(dir, unknown), kExitInput};
+    }
+    if (auto problem = outputFolderProblem(dir)) return FolderProblem{*problem, kExitRuntime};
+    return std::nullopt;
+}
+
 RunOutcome simulateAndWrite(ch::Simulation& sim, const RunPlan& plan, const fs::path& outDir, int threads,
                             const Options& o, const RunHooks& hooks) {
     RunOutcome result;
@@ -220,14 +232,27 @@ RunOutcome simulateAndWrite(ch::Simulation& sim, const RunPlan& plan, const fs::
     result.peaks = metrics.peaks();
     result.verdict = safety.verdict(sim);
 
+    // The files this run writes. The manifest lists them (with the previous run's) before the
+    // first is written, so a run killed while writing leaves no file the next run would not know.
+    std::vector<std::string> names = {"metrics.csv", "evacuations.csv", "health.csv", "heatmap.csv"};
+    if (trajectory)
+        for (std::string& n : trajectory->fileNames()) names.push_back(std::move(n));
+    names.push_back("summary.json");
+    OutputFolder folder(outDir);
+
     // summary.json last: its presence says that every other file is complete.
     try {
+        folder.announce(names);
         metrics.write(outDir / "metrics.csv");
         ch::writeFileAtomic(outDir / "evacuations.csv", ch::evacuationsCsv(sim));
         ch::writeFileAtomic(outDir / "health.csv", ch::healthCsv(sim.health()));
         ch::writeFileAtomic(outDir / "heatmap.csv", safety.heatmapCsv());
         if (trajectory) trajectory->commit();
+        if (o.killBeforeSummary) std::raise(SIGKILL);  // tests: a kill at the worst instant
         ch::writeFileAtomic(outDir / "summary.json", ch::summaryJson(sim, result.info, result.peaks, &result.verdict));
+        // Then the earlier run's files that this one did not write go, and the manifest lists
+        // exactly this run's files.
+        result.warnings = folder.settle(names);
     } catch (const std::exception& e) {
         result.error = std::string("cannot write the outputs: ") + e.what();
     }

@@ -15,6 +15,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace chcli {
 
@@ -47,6 +48,16 @@ std::optional<RunPlan> planRun(const Options& o, const ch::ScenarioSpec& spec, b
 /// used (a complete message line without a trailing newline), or nullopt when it can.
 std::optional<std::string> outputFolderProblem(const std::filesystem::path& dir);
 
+/// Why an output folder cannot be used, and the exit status that calls for.
+struct FolderProblem {
+    std::string message;  ///< after "crowdhealth: error: ", no trailing newline
+    int exitStatus;       ///< kExitInput: files the program does not know; kExitRuntime: not writable
+};
+
+/// Before a run into `dir`: unless `overwrite`, refuses a folder that holds files crowdhealth did
+/// not write (output_folder.h); then outputFolderProblem(dir). Nothing is written when it refuses.
+std::optional<FolderProblem> checkOutputFolder(const std::filesystem::path& dir, bool overwrite);
+
 /// Callbacks and extra measurements of one run.
 struct RunHooks {
     /// After every coarse step (progress display).
@@ -66,12 +77,15 @@ struct RunOutcome {
     ch::MetricsPeaks peaks;
     std::optional<double> probedMeanDensity;  ///< 1/m², see RunHooks::probeMeanDensityAt
     ch::Verdict verdict;       ///< the safety verdict (also in summary.json)
+    /// Problems that did not stop the run (an earlier run's file that could not be removed).
+    std::vector<std::string> warnings;
 };
 
 /// Runs `sim` on `threads` OpenMP threads (set in the calling thread) until it finishes, the
 /// safety cap, or Ctrl-C, then writes metrics.csv, evacuations.csv, health.csv, heatmap.csv,
 /// trajectories and summary.json (last, with the safety verdict) atomically into `outDir`, which
-/// must exist.
+/// must exist; then replaces the folder's manifest by the files written, removing the files of
+/// the previous manifest that this run did not write (output_folder.h).
 RunOutcome simulateAndWrite(ch::Simulation& sim, const RunPlan& plan, const std::filesystem::path& outDir,
                             int threads, const Options& o, const RunHooks& hooks);
 

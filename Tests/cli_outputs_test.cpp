@@ -5,6 +5,8 @@
 
 #include "cli_support.h"
 
+#include <crowdhealth/json.h>
+
 #include <cmath>
 #include <map>
 #include <set>
@@ -244,7 +246,7 @@ BOOST_AUTO_TEST_CASE(safety_thresholds_of_the_scenario_reach_the_verdict_and_the
     const Result r = run(dir, {"-i", scenario, "-o", "out", "-t", "1", "-q"});
     BOOST_TEST(r.status == 0, r.err);
     const std::string summary = readFile(dir / "out" / "summary.json");
-    BOOST_TEST(summary.find("\"verdict\": {\"level\": \"dangerous\"") != std::string::npos, summary);
+    BOOST_TEST(ch::Json::parse(summary)["verdict"]["level"] == "dangerous", summary);
     BOOST_TEST(jsonValue(summary, "threshold") == 0.1);
     BOOST_TEST(jsonValue(summary, "density_dangerous") == 0.1);  // "safety_thresholds": what judged it
     BOOST_TEST(jsonValue(summary, "cell_size") == 2.0);

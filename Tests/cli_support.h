@@ -2,8 +2,16 @@
 // folder under the build tree, read what it wrote. Include after <boost/test/unit_test.hpp>.
 #pragma once
 
+#include <fcntl.h>
+#include <signal.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
+#include <chrono>
+#include <functional>
+#include <thread>
+
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -85,6 +93,131 @@ inline Result runIn(const fs::path& dir, const std::string& prefix, const std::s
 
 /// Runs `crowdhealth args…` with `dir` as working folder (see runIn).
 inline Result run(const fs::path& dir, const std::vector<std::string>& args) { return runIn(dir, "", CH_BINARY, args); }
+
+/// `crowdhealth args…` started in the background (fork + exec) with `dir` as working folder,
+/// stdout and stderr into dir/_stdout.txt and dir/_stderr.txt; for tests that send signals.
+class Background {
+public:
+    Background(const fs::path& dir, const std::vector<std::string>& args) : dir_(dir) {
+        std::vector<std::string> argv = {CH_BINARY};
+        argv.insert(argv.end(), args.begin(), args.end());
+        const std::string out = (dir / "_stdout.txt").string(), err = (dir / "_stderr.txt").string();
+        pid_ = fork();
+        if (pid_ == 0) {  // the child: only async-signal-safe calls until exec
+            if (chdir(dir.c_str()) != 0) _exit(127);
+            const int o = open(out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+            const int e = open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+            const int in = open("/dev/null", O_RDONLY);
+            if (o < 0 || e < 0 || in < 0) _exit(127);
+            dup2(o, 1); dup2(e, 2); dup2(in, 0);
+            std::vector<char*> a;
+            for (std::string& s : argv) a.push_back(s.data());
+            a.push_back(nullptr);
+            execv(a[0], a.data());
+            _exit(127);
+        }
+    }
+    ~Background() {
+        if (pid_ > 0 && !reaped_) { ::kill(pid_, SIGKILL); waitpid(pid_, nullptr, 0); }
+    }
+    Background(const Background&) = delete;
+    Background& operator=(const Background&) = delete;
+
+    pid_t pid() const { return pid_; }
+    void signal(int signo) const { ::kill(pid_, signo); }
+    /// Waits for the end: the exit status, or 1000 + the signal that killed it.
+    int wait() {
+        int raw = 0;
+        waitpid(pid_, &raw, 0);
+        reaped_ = true;
+        if (WIFEXITED(raw)) return WEXITSTATUS(raw);
+        if (WIFSIGNALED(raw)) return 1000 + WTERMSIG(raw);
+        return -1;
+    }
+    /// True while the program has not ended (it is not reaped).
+    bool running() {
+        if (reaped_) return false;
+        int raw = 0;
+        if (waitpid(pid_, &raw, WNOHANG) == 0) return true;
+        reaped_ = true;
+        return false;
+    }
+    std::string err() const { return readFile(dir_ / "_stderr.txt"); }
+    std::string out() const { return readFile(dir_ / "_stdout.txt"); }
+
+private:
+    fs::path dir_;
+    pid_t pid_ = -1;
+    bool reaped_ = false;
+};
+
+/// Polls `condition` every 20 ms for up to `seconds`; true once it holds.
+inline bool waitFor(const std::function<bool()>& condition, double seconds = 120) {
+    const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+    while (std::chrono::steady_clock::now() < until) {
+        if (condition()) return true;
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    return condition();
+}
+
+/// Size of a file, 0 if it is not there.
+inline std::uintmax_t sizeOf(const fs::path& p) {
+    std::error_code ec;
+    const auto n = fs::file_size(p, ec);
+    return ec ? 0 : n;
+}
+
+/// Whether the JSON file parses with an independent parser, python3's json module (strict: the
+/// NaN and Infinity it would accept by default are not JSON). Empty when it does, else python's
+/// message.
+inline std::string pythonJsonProblem(const fs::path& file) {
+    const fs::path log = file.parent_path() / "_python-json.txt";
+    std::string cmd = "python3 -c 'import json,sys\n"
+                      "def no(c): raise ValueError(\"not JSON: \" + c)\n"
+                      "json.load(open(sys.argv[1], encoding=\"utf-8\"), parse_constant=no)' ";
+    cmd += shellQuote(file.string());
+    cmd += " >";
+    cmd += shellQuote(log.string());
+    cmd += " 2>&1";
+    const int raw = std::system(cmd.c_str());
+    std::string message = readFile(log);
+    fs::remove(log);
+    if (raw != -1 && WIFEXITED(raw) && WEXITSTATUS(raw) == 0) return "";
+    return message.empty() ? std::string("python3 failed") : message;
+}
+
+/// Every file under dir whose name ends in `extension` (e.g. ".json"), sorted.
+inline std::vector<fs::path> filesEndingIn(const fs::path& dir, const std::string& extension) {
+    std::vector<fs::path> v;
+    for (const auto& e : fs::recursive_directory_iterator(dir))
+        if (e.is_regular_file() && e.path().extension() == extension) v.push_back(e.path());
+    std::sort(v.begin(), v.end());
+    return v;
+}
+
+/// The names listed in a folder's .crowdhealth-manifest (comment lines left out), sorted.
+inline std::vector<std::string> manifestOf(const fs::path& dir) {
+    std::vector<std::string> names;
+    std::ifstream in(dir / ".crowdhealth-manifest");
+    for (std::string l; std::getline(in, l);)
+        if (!l.empty() && l[0] != '#') names.push_back(l);
+    std::sort(names.begin(), names.end());
+    return names;
+}
+
+/// The names in a folder (sub-folders with a trailing '/'), sorted; `_`-prefixed capture files
+/// of these helpers left out.
+inline std::vector<std::string> entriesOf(const fs::path& dir) {
+    std::vector<std::string> names;
+    for (const auto& e : fs::directory_iterator(dir)) {
+        const std::string n = e.path().filename().string();
+        if (n[0] == '_') continue;
+        names.push_back(n + (e.is_directory() ? "/" : ""));
+    }
+    std::sort(names.begin(), names.end());
+    return names;
+}
 
 inline std::vector<std::string> lines(const std::string& text) {
     std::vector<std::string> v;

@@ -5,6 +5,7 @@
 
 #include "cli_support.h"
 
+#include <crowdhealth/json.h>
 #include <crowdhealth/output.h>
 
 #include <clocale>
@@ -55,15 +56,55 @@ BOOST_AUTO_TEST_CASE(numbers_are_written_the_same_under_any_locale) {
     BOOST_TEST(ch::formatNumber(3 * 0.1) == "0.3");  // 0.30000000000000004 at 6 digits
     BOOST_TEST(ch::formatNumber(-0.0) == "0");
     BOOST_TEST(ch::formatNumber(std::nan("")) == "nan");
-    BOOST_TEST(ch::jsonNumber(std::nan("")) == "null");
-    BOOST_TEST(ch::jsonNumber(92 * 0.1) == "9.2");
+    BOOST_TEST(ch::jsonNumber(std::nan("")).is_null());
+    BOOST_TEST(ch::jsonNumber(92 * 0.1).dump() == "9.2");
     std::setlocale(LC_NUMERIC, saved.c_str());
     BOOST_TEST_MESSAGE("decimal-comma locale " << (switched ? "used" : "not installed; checked under C only"));
 }
 
-BOOST_AUTO_TEST_CASE(json_strings_are_escaped) {
-    BOOST_TEST(ch::jsonString("a\"b\\c\nd") == "\"a\\\"b\\\\c\\nd\"");
-    BOOST_TEST(ch::jsonString(std::string("\x01", 1)) == "\"\\u0001\"");
+BOOST_AUTO_TEST_CASE(json_numbers_are_readable_and_never_invalid) {
+    // NaN and infinities have no JSON form: null (the library would also write null, but the
+    // value must not depend on that).
+    BOOST_TEST(ch::jsonNumber(std::numeric_limits<double>::infinity()).is_null());
+    BOOST_TEST(ch::jsonNumber(-std::numeric_limits<double>::infinity()).is_null());
+    // Whole numbers stay integers ("300", not "300.0"); -0 is 0.
+    BOOST_TEST(ch::jsonNumber(300.0).dump() == "300");
+    BOOST_TEST(ch::jsonNumber(-0.0).dump() == "0");
+    BOOST_TEST(ch::jsonNumber(1e300).dump() == "1e+300");
+    // Ten significant digits by default, fewer on request.
+    BOOST_TEST(ch::jsonNumber(1.0 / 3).dump() == "0.3333333333");
+    BOOST_TEST(ch::jsonNumber(18.09172345, 6).dump() == "18.0917");
+    BOOST_TEST(ch::jsonNumber(2.5e-7).get<double>() == 2.5e-7);
+}
+
+BOOST_AUTO_TEST_CASE(json_text_is_valid_whatever_the_strings_hold) {
+    // Quotes, backslashes, control characters and bytes that are not UTF-8 (a path on a Latin-1
+    // file system): the library escapes or replaces them, the text parses back.
+    ch::Json j;
+    j["scenario"] = std::string("a\"b\\c\nd\x01\xe9.xml");
+    j["x"] = ch::jsonNumber(std::nan(""));
+    const std::string text = ch::jsonText(j);
+    BOOST_TEST(text.back() == '\n');
+    const ch::Json back = ch::Json::parse(text);
+    BOOST_TEST(back["scenario"].get<std::string>().substr(0, 8) == std::string("a\"b\\c\nd\x01"));
+    BOOST_TEST(back["x"].is_null());
+}
+
+BOOST_AUTO_TEST_CASE(broken_json_files_are_reported_with_path_and_position) {
+    const fs::path dir = fs::temp_directory_path() / "crowdhealth-json-read-test";
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    std::ofstream(dir / "bad.json") << "{\n  \"seed\": 1,\n  \"scenario\": \n";
+    try {
+        ch::readJsonFile(dir / "bad.json");
+        BOOST_FAIL("no error for a broken file");
+    } catch (const ch::JsonError& e) {
+        const std::string what = e.what();
+        BOOST_TEST(what.find((dir / "bad.json").string() + ": not valid JSON") == 0u, what);
+        BOOST_TEST(what.find("line 4") != std::string::npos, what);
+    }
+    BOOST_CHECK_THROW(ch::readJsonFile(dir / "missing.json"), ch::JsonError);
+    fs::remove_all(dir);
 }
 
 BOOST_AUTO_TEST_CASE(flow_counts_persons_between_the_first_and_last_evacuee) {

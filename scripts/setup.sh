@@ -7,6 +7,8 @@ cd "$(dirname "$0")/.."
 PACKAGES=(g++ cmake make pkg-config libtinyxml2-dev libeigen3-dev libboost-program-options-dev
           libboost-test-dev libgnuplot-iostream-dev libboost-iostreams-dev libboost-system-dev
           libboost-filesystem-dev gnuplot-nox
+          # every JSON file written or read (summary.json, render.json)
+          nlohmann-json3-dev
           # crowdhealth-viewer and its test, screenshots/PNG checks (docs/rendering.md)
           libglfw3-dev libgl-dev zlib1g-dev xvfb xauth)
 

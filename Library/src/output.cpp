@@ -2,6 +2,7 @@
 #include "crowdhealth/output.h"
 
 #include "crowdhealth/grid.h"
+#include "crowdhealth/json.h"
 #include "crowdhealth/kernels.h"
 #include "crowdhealth/safety.h"
 
@@ -47,37 +48,6 @@ static void appendFixed(std::string& out, double v, int decimals) {
     // "-0.0000" (a tiny negative value) reads oddly; it is the same position as "0.0000".
     if (text.front() == '-' && text.find_first_not_of("-0.") == std::string_view::npos) text.remove_prefix(1);
     out += text;
-}
-
-std::string jsonNumber(double v, int digits) {
-    if (!std::isfinite(v)) return "null";
-    std::string s;
-    appendNumber(s, v, digits);
-    return s;
-}
-
-std::string jsonString(std::string_view s) {
-    std::string out = "\"";
-    for (const char c : s) {
-        switch (c) {
-            case '"': out += "\\\""; break;
-            case '\\': out += "\\\\"; break;
-            case '\n': out += "\\n"; break;
-            case '\r': out += "\\r"; break;
-            case '\t': out += "\\t"; break;
-            default:
-                if (static_cast<unsigned char>(c) < 0x20) {
-                    static const char* hex = "0123456789abcdef";
-                    out += "\\u00";
-                    out += hex[(c >> 4) & 0xf];
-                    out += hex[c & 0xf];
-                } else {
-                    out += c;  // UTF-8 bytes pass through unchanged (valid JSON)
-                }
-        }
-    }
-    out += '"';
-    return out;
 }
 
 // ---- atomic files --------------------------------------------------------------------------
@@ -488,6 +458,12 @@ void TrajectoryRecorder::record(const Simulation& sim) {
     }
 }
 
+std::vector<std::string> TrajectoryRecorder::umansFileNames() const {
+    std::vector<std::string> names;
+    for (const Track& tr : tracks_) names.push_back("output_" + std::to_string(tr.id) + ".csv");
+    return names;
+}
+
 void TrajectoryRecorder::writeUmans(const fs::path& dir) const {
     std::vector<std::size_t> order(tracks_.size());
     std::iota(order.begin(), order.end(), std::size_t{0});
@@ -541,6 +517,14 @@ bool TrajectoryOutput::maybeRecord(const Simulation& sim) {
     return frames_ != before;
 }
 
+std::vector<std::string> TrajectoryOutput::fileNames() const {
+    std::vector<std::string> names;
+    if (umans_) names = umans_->umansFileNames();
+    if (txt_) names.push_back("trajectories.txt");
+    if (bin_) names.push_back("trajectories.bin");
+    return names;
+}
+
 void TrajectoryOutput::commit() {
     if (umans_) umans_->writeUmans(dir_);
     if (txt_) txt_->commit();
@@ -574,48 +558,46 @@ std::string summaryJson(const Simulation& sim, const RunInfo& info, const Metric
     if (remaining == 0 && !evac.empty()) evacTime = evac.back().time;
 
     const std::string scenario = info.scenario.empty() ? spec.sourceFile : info.scenario;
-    auto opt = [](const std::optional<double>& v) { return v ? jsonNumber(*v) : std::string("null"); };
+    auto opt = [](const std::optional<double>& v) { return v ? jsonNumber(*v) : Json(nullptr); };
 
-    std::string j = "{\n";
-    j += "  \"scenario\": " + jsonString(scenario) + ",\n";
-    j += "  \"seed\": " + std::to_string(spec.seed) + ",\n";
-    j += "  \"delta_time\": " + jsonNumber(sim.deltaTime()) + ",\n";
-    j += "  \"delta_time_fine\": " + jsonNumber(sim.deltaTimeFine()) + ",\n";
-    j += "  \"end_time\": " + (info.endTime >= 0 ? jsonNumber(info.endTime) : std::string("null")) + ",\n";
-    j += "  \"end_time_source\": " + jsonString(info.endTimeSource.empty() ? "none" : info.endTimeSource) + ",\n";
-    j += "  \"simulated_time\": " + jsonNumber(sim.time()) + ",\n";
-    j += "  \"coarse_steps\": " + std::to_string(sim.coarseSteps()) + ",\n";
-    j += std::string("  \"interrupted\": ") + (info.interrupted ? "true" : "false") + ",\n";
-    j += std::string("  \"stopped_at_safety_cap\": ") + (info.stoppedAtSafetyCap ? "true" : "false") + ",\n";
-    j += "  \"agents_total\": " + std::to_string(total) + ",\n";
-    j += "  \"evacuated\": " + std::to_string(evac.size()) + ",\n";
-    j += "  \"left_world\": " + std::to_string(sim.leftWorld()) + ",\n";
-    j += "  \"remaining\": " + std::to_string(remaining) + ",\n";
-    j += "  \"evacuation_time\": " + opt(evacTime) + ",\n";
-    j += "  \"flow\": {\"first\": " + std::to_string(first) + ", \"last\": " + std::to_string(last) +
-         ", \"persons_per_second\": " + opt(flow) + "},\n";
-    j += "  \"peaks\": {\"max_density\": " + jsonNumber(peaks.maxDensity) +
-         ", \"max_mean_density\": " + jsonNumber(peaks.maxMeanDensity) +
-         ", \"max_contact_accel\": " + jsonNumber(peaks.maxContactAccel) +
-         ", \"max_wall_penetration\": " + jsonNumber(peaks.maxWallPenetration) + "},\n";
+    Json j;  // keys in the documented order (docs/user-guide.md, summary.json)
+    j["scenario"] = scenario;
+    j["seed"] = spec.seed;
+    j["delta_time"] = jsonNumber(sim.deltaTime());
+    j["delta_time_fine"] = jsonNumber(sim.deltaTimeFine());
+    j["end_time"] = info.endTime >= 0 ? jsonNumber(info.endTime) : Json(nullptr);
+    j["end_time_source"] = info.endTimeSource.empty() ? std::string("none") : info.endTimeSource;
+    j["simulated_time"] = jsonNumber(sim.time());
+    j["coarse_steps"] = sim.coarseSteps();
+    j["interrupted"] = info.interrupted;
+    j["stopped_at_safety_cap"] = info.stoppedAtSafetyCap;
+    j["agents_total"] = total;
+    j["evacuated"] = evac.size();
+    j["left_world"] = sim.leftWorld();
+    j["remaining"] = remaining;
+    j["evacuation_time"] = opt(evacTime);
+    j["flow"] = Json{{"first", first}, {"last", last}, {"persons_per_second", opt(flow)}};
+    j["peaks"] = Json{{"max_density", jsonNumber(peaks.maxDensity)},
+                      {"max_mean_density", jsonNumber(peaks.maxMeanDensity)},
+                      {"max_contact_accel", jsonNumber(peaks.maxContactAccel)},
+                      {"max_wall_penetration", jsonNumber(peaks.maxWallPenetration)}};
     if (verdict != nullptr) {
-        j += "  \"verdict\": " + verdictJson(*verdict, 2) + ",\n";
+        j["verdict"] = verdictJsonValue(*verdict);
         // What the verdict was judged by, under the <Safety> attribute names.
         const SafetyThresholds& t = sim.spec().safety;
-        j += "  \"safety_thresholds\": {\"cell_size\": " + jsonNumber(t.cellSize) +
-             ", \"gaussian_radius\": " + jsonNumber(t.gaussianRadius) +
-             ", \"density_caution\": " + jsonNumber(t.densityCaution) +
-             ", \"density_dangerous\": " + jsonNumber(t.densityDangerous) +
-             ", \"density_critical\": " + jsonNumber(t.densityCritical) +
-             ", \"crowd_pressure\": " + jsonNumber(t.crowdPressureCritical) +
-             ", \"pressure_window\": " + jsonNumber(t.pressureWindow) +
-             ", \"min_duration\": " + jsonNumber(t.minDuration) +
-             ", \"dose_dangerous_fraction\": " + jsonNumber(t.doseDangerousFraction) + "},\n";
+        j["safety_thresholds"] = Json{{"cell_size", jsonNumber(t.cellSize)},
+                                      {"gaussian_radius", jsonNumber(t.gaussianRadius)},
+                                      {"density_caution", jsonNumber(t.densityCaution)},
+                                      {"density_dangerous", jsonNumber(t.densityDangerous)},
+                                      {"density_critical", jsonNumber(t.densityCritical)},
+                                      {"crowd_pressure", jsonNumber(t.crowdPressureCritical)},
+                                      {"pressure_window", jsonNumber(t.pressureWindow)},
+                                      {"min_duration", jsonNumber(t.minDuration)},
+                                      {"dose_dangerous_fraction", jsonNumber(t.doseDangerousFraction)}};
     }
-    j += "  \"threads\": " + std::to_string(info.threads) + ",\n";
-    j += "  \"wall_time_s\": " + jsonNumber(info.wallTimeSeconds) + "\n";
-    j += "}\n";
-    return j;
+    j["threads"] = info.threads;
+    j["wall_time_s"] = jsonNumber(info.wallTimeSeconds);
+    return jsonText(j);
 }
 
 std::optional<double> runEvacuationTime(const Simulation& sim) {

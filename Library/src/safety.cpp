@@ -401,27 +401,28 @@ Verdict SafetyRecorder::verdict(const Simulation& sim) const {
     return v;
 }
 
-std::string verdictJson(const Verdict& v, int indent) {
-    const std::string pad(static_cast<std::size_t>(indent), ' ');
-    std::string j = "{\"level\": " + jsonString(v.level) + ", \"reasons\": [";
-    for (std::size_t k = 0; k < v.reasons.size(); ++k) {
-        const VerdictReason& r = v.reasons[k];
-        j += k ? ",\n" : "\n";
-        j += pad + "  {\"level\": " + jsonString(r.level) + ", \"measure\": " + jsonString(r.measure) +
-             ", \"threshold\": " + jsonNumber(r.threshold) + ", \"unit\": " + jsonString(r.unit) +
-             ", \"first_time\": " + jsonNumber(r.firstTime) + ", \"duration\": " + jsonNumber(r.duration) +
-             ", \"people\": " + std::to_string(r.people) + ", \"where\": ";
+Json verdictJsonValue(const Verdict& v) {
+    Json reasons = Json::array();
+    for (const VerdictReason& r : v.reasons) {
+        Json where = nullptr;
         if (r.hasWhere)
-            j += "{\"x\": " + jsonNumber(r.x, 6) + ", \"y\": " + jsonNumber(r.y, 6) + ", \"xmin\": " +
-                 jsonNumber(r.xmin, 6) + ", \"xmax\": " + jsonNumber(r.xmax, 6) + ", \"ymin\": " +
-                 jsonNumber(r.ymin, 6) + ", \"ymax\": " + jsonNumber(r.ymax, 6) + "}";
-        else
-            j += "null";
-        j += ", \"text\": " + jsonString(r.text) + "}";
+            where = Json{{"x", jsonNumber(r.x, 6)},       {"y", jsonNumber(r.y, 6)},
+                         {"xmin", jsonNumber(r.xmin, 6)}, {"xmax", jsonNumber(r.xmax, 6)},
+                         {"ymin", jsonNumber(r.ymin, 6)}, {"ymax", jsonNumber(r.ymax, 6)}};
+        reasons.push_back(Json{{"level", r.level},
+                               {"measure", r.measure},
+                               {"threshold", jsonNumber(r.threshold)},
+                               {"unit", r.unit},
+                               {"first_time", jsonNumber(r.firstTime)},
+                               {"duration", jsonNumber(r.duration)},
+                               {"people", r.people},
+                               {"where", where},
+                               {"text", r.text}});
     }
-    j += v.reasons.empty() ? "]}" : "\n" + pad + "]}";
-    return j;
+    return Json{{"level", v.level}, {"reasons", reasons}};
 }
+
+std::string verdictJson(const Verdict& v) { return verdictJsonValue(v).dump(); }
 
 std::string verdictText(const Verdict& v) {
     std::string upper = v.level;

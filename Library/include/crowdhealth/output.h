@@ -52,11 +52,7 @@ public:
 void appendNumber(std::string& out, double v, int digits = 6);
 /// appendNumber into a new string.
 std::string formatNumber(double v, int digits = 6);
-/// JSON value of v with `digits` significant digits, or `null` if not finite. Ten digits keep
-/// times such as 92·0.1 = 9.200000000000001 readable as 9.2 while losing nothing measurable.
-std::string jsonNumber(double v, int digits = 10);
-/// JSON string literal with quotes and escapes.
-std::string jsonString(std::string_view s);
+// JSON: crowdhealth/json.h (every JSON file goes through nlohmann/json).
 
 // ---- atomic files --------------------------------------------------------------------------
 
@@ -299,6 +295,8 @@ public:
     /// header, one row per recorded frame while the agent is in the world, without the t = 0 row
     /// (UMANS records after each step). Each file is written atomically.
     void writeUmans(const std::filesystem::path& dir) const;
+    /// The names writeUmans writes: output_<id>.csv of every agent recorded, by id.
+    std::vector<std::string> umansFileNames() const;
 
 private:
     struct Run {
@@ -346,6 +344,8 @@ public:
     void finish(const Simulation& sim) { record(sim); }
     /// Writes the UMANS files and renames the streamed files to their final names.
     void commit();
+    /// The names of the files commit() writes into the folder (trajectories.txt, …).
+    std::vector<std::string> fileNames() const;
 
     /// Frames recorded so far.
     std::size_t frameCount() const { return frames_; }

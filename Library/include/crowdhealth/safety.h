@@ -16,6 +16,7 @@
 #pragma once
 
 #include "crowdhealth/simulation.h"
+#include "crowdhealth/json.h"
 
 #include <cstdint>
 #include <limits>
@@ -130,8 +131,10 @@ private:
                              const std::string& unit, const std::string& what) const;
 };
 
-/// The verdict as a JSON object (no trailing newline), `indent` spaces before nested lines.
-std::string verdictJson(const Verdict& v, int indent = 2);
+/// The verdict as a JSON object {"level": …, "reasons": […]} (summary.json's "verdict").
+Json verdictJsonValue(const Verdict& v);
+/// verdictJsonValue serialised on one line by the JSON library.
+std::string verdictJson(const Verdict& v);
 /// Human-readable lines: "safety verdict: DANGEROUS" then one line per reason.
 std::string verdictText(const Verdict& v);
 
