@@ -41,8 +41,10 @@ int main() {
     for (const std::string& t : tokens) {
         std::cout << '"';
         for (const char c : t) {
+            // libFuzzer's dictionary syntax: \\, \" and \xHH escapes, printable ASCII otherwise.
+            const auto u = static_cast<unsigned char>(c);
             if (c == '"' || c == '\\') std::cout << '\\' << c;
-            else if (c == '\n') std::cout << "\\n";
+            else if (u < 0x20 || u >= 0x7f) std::cout << "\\x" << "0123456789ABCDEF"[u >> 4] << "0123456789ABCDEF"[u & 15];
             else std::cout << c;
         }
         std::cout << "\"\n";
