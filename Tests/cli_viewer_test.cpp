@@ -30,9 +30,13 @@ boost::test_tools::assertion_result viewerAvailable(utf::test_unit_id) {
 }
 
 #ifdef CH_VIEWER
-/// Runs the viewer under xvfb-run in `dir`.
+/// Runs the viewer under xvfb-run in `dir`. Under the sanitizers (scripts/test.sh --sanitize)
+/// the viewer is checked for memory errors but not for leaks: Mesa's GL driver, which GLFW loads
+/// and unloads, leaves 112 bytes that LeakSanitizer can only attribute to an "<unknown module>"
+/// (so no suppression can name it). Outside the sanitizers ASAN_OPTIONS is ignored.
 Result runViewer(const fs::path& dir, const std::vector<std::string>& args) {
-    return runIn(dir, "xvfb-run -a -s '-screen 0 1280x1024x24'", CH_VIEWER, args);
+    return runIn(dir, "ASAN_OPTIONS=\"${ASAN_OPTIONS:-}:detect_leaks=0\" xvfb-run -a -s '-screen 0 1280x1024x24'",
+                 CH_VIEWER, args);
 }
 #endif
 
