@@ -33,6 +33,23 @@ struct VerdictRun {
     }
 };
 
+/// Two agents walking into each other for 4 s (goal force + contact, fine steps of 0.02 s), with
+/// a crush threshold of 10 N (every contact adds dose) and the given injury dose (N s).
+ScenarioSpec pushingPair(double injuryDose) {
+    std::vector<AgentSpec> agents = {agent(0, {0, 0}, {6, 0}, 0.3), agent(1, {1.5, 0}, {-5, 0}, 0.3)};
+    PolicySpec p = policy(0, OptimisationMethod::Gradient,
+                          {component("GoalReachingForce", {{"range", 0.0}}), component("ContactForces", {{"range", 1.0}})},
+                          0.5, {}, StepTiming::Fine, 0.0);
+    CrowdHealthSpec h;
+    h.params = ParamSet(crowdHealthTable());
+    h.params.set("crushThreshold", 10.0);
+    h.params.set("injuryDose", injuryDose);
+    p.health = h;
+    ScenarioSpec s = scenario(agents, {p}, 0.1, 4);
+    s.deltaTimeFine = 0.02;
+    return s;
+}
+
 /// A scenario of the repository (path below its top level), which must load.
 ScenarioSpec loadRepositoryScenario(const std::string& relative) {
     Diagnostics diags;
@@ -197,20 +214,7 @@ BOOST_AUTO_TEST_CASE(crush_dose_is_dangerous_from_half_the_injury_dose) {
     // Two agents pushing into each other (crush threshold 10 N, so every contact adds dose). The
     // verdict is 'dangerous' (crush_dose) when the larger dose reaches half the injury dose
     // (dose_dangerous_fraction 0.5), 'caution' (crush_force) below that.
-    auto runWith = [](double injuryDose) {
-        std::vector<AgentSpec> agents = {agent(0, {0, 0}, {6, 0}, 0.3), agent(1, {1.5, 0}, {-5, 0}, 0.3)};
-        PolicySpec p = policy(0, OptimisationMethod::Gradient,
-                              {component("GoalReachingForce", {{"range", 0.0}}), component("ContactForces", {{"range", 1.0}})},
-                              0.5, {}, StepTiming::Fine, 0.0);
-        CrowdHealthSpec h;
-        h.params = ParamSet(crowdHealthTable());
-        h.params.set("crushThreshold", 10.0);
-        h.params.set("injuryDose", injuryDose);
-        p.health = h;
-        ScenarioSpec s = scenario(agents, {p}, 0.1, 4);
-        s.deltaTimeFine = 0.02;
-        return std::make_unique<VerdictRun>(s);
-    };
+    auto runWith = [](double injuryDose) { return std::make_unique<VerdictRun>(pushingPair(injuryDose)); };
     double dose = 0;
     {
         const auto probe = runWith(1e12);
@@ -280,18 +284,7 @@ BOOST_AUTO_TEST_CASE(base_case_door_is_at_least_dangerous) {
 
 BOOST_AUTO_TEST_CASE(injuries_make_it_critical) {
     // Two agents pressed into each other with a tiny injury dose: critical, with the crush place.
-    std::vector<AgentSpec> agents = {agent(0, {0, 0}, {6, 0}, 0.3), agent(1, {1.5, 0}, {-5, 0}, 0.3)};
-    PolicySpec p = policy(0, OptimisationMethod::Gradient,
-                          {component("GoalReachingForce", {{"range", 0.0}}), component("ContactForces", {{"range", 1.0}})},
-                          0.5, {}, StepTiming::Fine, 0.0);
-    CrowdHealthSpec h;
-    h.params = ParamSet(crowdHealthTable());
-    h.params.set("crushThreshold", 10.0);
-    h.params.set("injuryDose", 0.5);
-    p.health = h;
-    ScenarioSpec s = scenario(agents, {p}, 0.1, 4);
-    s.deltaTimeFine = 0.02;
-    const VerdictRun run(s);
+    const VerdictRun run(pushingPair(0.5));
     const Verdict& v = run.verdict;
     BOOST_TEST(v.level == "critical");
     BOOST_REQUIRE(!v.reasons.empty());
