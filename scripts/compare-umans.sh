@@ -6,7 +6,8 @@
 #   scripts/compare-umans.sh [OUTDIR]                  (default OUTDIR: build/compare-umans)
 #   ONLY='Circle.*-ORCA' JOBS=2 TIMEOUT=600 scripts/compare-umans.sh out
 #   CH_ARGS='--foo' ...                                 extra arguments for crowdhealth
-# Writes OUTDIR/compare.md, OUTDIR/compare.csv and each run under OUTDIR/runs/<example>/{umans,crowdhealth}.
+# Writes OUTDIR/compare.md, OUTDIR/compare.csv and each run under OUTDIR/runs/<example>/{umans,crowdhealth}
+# (their logs beside them: umans.log, crowdhealth.log).
 # Definitions (the same for both programs, from the trajectories): docs/policies.md, "UMANS' examples".
 set -euo pipefail
 repo="$(cd "$(dirname "$0")/.." && pwd)"

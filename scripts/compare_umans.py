@@ -153,7 +153,9 @@ def run(cmd, outdir, timeout, env=None):
             os.remove(os.path.join(outdir, f))
     t0 = time.monotonic()
     try:
-        with open(os.path.join(outdir, "run.log"), "w") as log:
+        # The log goes beside the output folder, not into it: crowdhealth refuses an output folder
+        # that holds files it did not write (docs/user-guide.md, "The output folder").
+        with open(outdir.rstrip("/") + ".log", "w") as log:
             r = subprocess.run(cmd, stdout=log, stderr=subprocess.STDOUT, timeout=timeout, env=env)
         status = "ok" if r.returncode == 0 else "exit %d" % r.returncode
     except subprocess.TimeoutExpired:
@@ -174,7 +176,7 @@ def one_example(xml, args):
     if math.isnan(end_time):
         res["note"] = "no end_time"
         return res
-    if args.reuse and os.path.exists(os.path.join(udir, "run.log")):
+    if args.reuse and os.path.exists(udir + ".log"):
         ustat = "reused"
     else:
         ustat, _ = run([args.umans, "-i", os.path.abspath(xml), "-o", os.path.abspath(udir) + "/", "-t", "1"],
