@@ -28,19 +28,8 @@ if ! [[ "$SECONDS_PER_TARGET" =~ ^[0-9]+$ ]] || [ "$SECONDS_PER_TARGET" -lt 1 ];
   exit 2
 fi
 
-PACKAGES=(clang libfuzzer-14-dev libomp-14-dev python3)
-missing=()
-for p in "${PACKAGES[@]}"; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
-done
-if ((${#missing[@]})); then
-  echo "fuzz: installing ${missing[*]}"
-  SUDO=""
-  if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
-  $SUDO apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${missing[@]}"
-fi
-SETUP_ONLY_PACKAGES=1 scripts/setup.sh  # the project's own libraries
+# The project's own packages plus clang, libFuzzer and clang's OpenMP (setup.sh installs them).
+EXTRA_PACKAGES="clang libfuzzer-14-dev libomp-14-dev python3" SETUP_ONLY_PACKAGES=1 scripts/setup.sh
 
 JOBS="${JOBS:-$(nproc)}"
 CC=clang CXX=clang++ cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCROWDHEALTH_FUZZ=ON > build-fuzz.log

@@ -12,6 +12,9 @@ PACKAGES=(g++ cmake make pkg-config libtinyxml2-dev libeigen3-dev libboost-progr
           # crowdhealth-viewer and its test, screenshots/PNG checks (docs/rendering.md)
           libglfw3-dev libgl-dev zlib1g-dev xvfb xauth)
 
+# EXTRA_PACKAGES: more packages for a caller (scripts/fuzz.sh: clang, libFuzzer, …).
+read -r -a extra <<< "${EXTRA_PACKAGES:-}"
+PACKAGES+=("${extra[@]}")
 missing=()
 for p in "${PACKAGES[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

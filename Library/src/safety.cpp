@@ -122,8 +122,15 @@ CrowdField crowdField(const AgentStore& agents, double cellSize, double R) {
     f.velocity.assign(cells, Vec2(0, 0));
     f.weighted.assign(cells, 0);
     f.people.assign(cells, 0);
+    // Per agent, its cell: by position in the dense rectangle (row-major), by search otherwise.
+    const bool dense = cells > 0 && cells == static_cast<std::size_t>(f.ix.back() - f.ix.front() + 1) *
+                                                 static_cast<std::size_t>(f.iy.back() - f.iy.front() + 1);
+    const int nx = cells > 0 ? f.ix.back() - f.ix.front() + 1 : 0;
     for (const Vec2& p : agents.pos) {
-        const std::size_t c = f.find(cellIndex(p.x(), cellSize), cellIndex(p.y(), cellSize));
+        const int x = cellIndex(p.x(), cellSize), y = cellIndex(p.y(), cellSize);
+        const std::size_t c = dense ? static_cast<std::size_t>(y - f.iy.front()) * static_cast<std::size_t>(nx) +
+                                          static_cast<std::size_t>(x - f.ix.front())
+                                    : f.find(x, y);
         if (c < cells) ++f.people[c];
     }
     PointGrid grid;
