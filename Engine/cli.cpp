@@ -1,7 +1,7 @@
 // crowdhealth — command-line parsing (see cli.h).
 #include "cli.h"
 
-#include <crowdhealth/scenario.h>
+#include <crowdhealth/core/scenario.h>
 
 #include <boost/program_options.hpp>
 

@@ -6,7 +6,7 @@
 #include "output_folder.h"
 #include "plot_gnuplot.h"
 
-#include <crowdhealth/output.h>
+#include <crowdhealth/io/output.h>
 
 #include <boost/program_options.hpp>
 

@@ -1,7 +1,7 @@
 // crowdhealth --list-policies (see list_policies.h).
 #include "list_policies.h"
 
-#include <crowdhealth/registry.h>
+#include <crowdhealth/core/registry.h>
 
 #include <algorithm>
 #include <array>

@@ -1,7 +1,7 @@
 // crowdhealth — the output folder's rules (see output_folder.h).
 #include "output_folder.h"
 
-#include <crowdhealth/output.h>
+#include <crowdhealth/io/output.h>
 
 #include <algorithm>
 #include <fstream>

@@ -5,7 +5,7 @@
 
 #include "exit_codes.h"
 
-#include <crowdhealth/output.h>
+#include <crowdhealth/io/output.h>
 
 #include <boost/program_options.hpp>
 

@@ -1,7 +1,7 @@
 // crowdhealth plot / compare — reading run folders (see plot_data.h).
 #include "plot_data.h"
 
-#include <crowdhealth/json.h>
+#include <crowdhealth/io/json.h>
 
 #include <algorithm>
 #include <charconv>

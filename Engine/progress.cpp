@@ -1,7 +1,7 @@
 // crowdhealth — the progress bar (see progress.h).
 #include "progress.h"
 
-#include <crowdhealth/simulation.h>
+#include <crowdhealth/core/simulation.h>
 
 #include <unistd.h>
 

@@ -15,11 +15,11 @@
 #include "render_scene.h"
 #include "trajectory_read.h"
 
-#include <crowdhealth/json.h>
-#include <crowdhealth/output.h>
-#include <crowdhealth/simulation.h>
-#include <crowdhealth/world.h>
-#include <crowdhealth/xml.h>
+#include <crowdhealth/io/json.h>
+#include <crowdhealth/io/output.h>
+#include <crowdhealth/core/simulation.h>
+#include <crowdhealth/core/world.h>
+#include <crowdhealth/io/xml.h>
 
 #include <boost/program_options.hpp>
 

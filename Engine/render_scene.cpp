@@ -1,10 +1,10 @@
 // crowdhealth — shared by the renderer and the viewer (see render_scene.h).
 #include "render_scene.h"
 
-#include "crowdhealth/health.h"
+#include "crowdhealth/health/health.h"
 
-#include <crowdhealth/diagnostics.h>
-#include <crowdhealth/xml.h>
+#include <crowdhealth/io/diagnostics.h>
+#include <crowdhealth/io/xml.h>
 
 #include <algorithm>
 #include <cmath>

@@ -3,8 +3,8 @@
 // scene, and the per-agent values of a running simulation.
 #pragma once
 
-#include <crowdhealth/scenario.h>
-#include <crowdhealth/simulation.h>
+#include <crowdhealth/core/scenario.h>
+#include <crowdhealth/core/simulation.h>
 
 #include <iosfwd>
 #include <optional>

@@ -16,8 +16,8 @@
 #include "scenario_run.h"
 #include "signals.h"
 
-#include <crowdhealth/output.h>
-#include <crowdhealth/simulation.h>
+#include <crowdhealth/io/output.h>
+#include <crowdhealth/core/simulation.h>
 
 #include <algorithm>
 #include <atomic>

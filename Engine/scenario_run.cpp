@@ -7,7 +7,7 @@
 #include "run.h"
 #include "signals.h"
 
-#include <crowdhealth/xml.h>
+#include <crowdhealth/io/xml.h>
 
 #include <algorithm>
 #include <atomic>

@@ -5,9 +5,9 @@
 
 #include "cli.h"
 
-#include <crowdhealth/output.h>
-#include <crowdhealth/safety.h>
-#include <crowdhealth/simulation.h>
+#include <crowdhealth/io/output.h>
+#include <crowdhealth/health/safety.h>
+#include <crowdhealth/core/simulation.h>
 
 #include <cstdint>
 #include <filesystem>

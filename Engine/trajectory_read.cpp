@@ -1,7 +1,7 @@
 // crowdhealth — reading a finished run's trajectories back (see trajectory_read.h).
 #include "trajectory_read.h"
 
-#include <crowdhealth/output.h>
+#include <crowdhealth/io/output.h>
 
 #include <algorithm>
 #include <charconv>

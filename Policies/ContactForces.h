@@ -1,7 +1,7 @@
 // CrowdHealth — ContactForces: body contact between agents and with walls (paper eq. 1 term).
 #pragma once
 
-#include "crowdhealth/registry.h"
+#include "crowdhealth/core/registry.h"
 
 #include <vector>
 

@@ -1,7 +1,7 @@
 // CrowdHealth — FOEAvoidance: collision avoidance from each neighbour's focus of expansion.
 #pragma once
 
-#include "crowdhealth/registry.h"
+#include "crowdhealth/core/registry.h"
 
 namespace ch {
 

@@ -1,7 +1,7 @@
 // CrowdHealth — GoalReachingForce: relaxation of the velocity towards the preferred velocity.
 #pragma once
 
-#include "crowdhealth/registry.h"
+#include "crowdhealth/core/registry.h"
 
 namespace ch {
 

@@ -1,7 +1,7 @@
 // CrowdHealth — Karamouzas (Karamouzas & Overmars 2010), see Karamouzas.h.
 #include "Karamouzas.h"
 
-#include "crowdhealth/geometry.h"
+#include "crowdhealth/core/geometry.h"
 
 #include <algorithm>
 #include <cmath>

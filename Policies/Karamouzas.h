@@ -2,7 +2,7 @@
 // admissible velocity set (Karamouzas & Overmars 2010).
 #pragma once
 
-#include "crowdhealth/registry.h"
+#include "crowdhealth/core/registry.h"
 
 #include <utility>
 

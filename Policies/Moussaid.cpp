@@ -1,7 +1,7 @@
 // CrowdHealth — Moussaid (Moussaïd, Helbing & Theraulaz 2011), see Moussaid.h.
 #include "Moussaid.h"
 
-#include "crowdhealth/geometry.h"
+#include "crowdhealth/core/geometry.h"
 
 #include <algorithm>
 #include <cmath>

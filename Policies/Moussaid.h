@@ -1,7 +1,7 @@
 // CrowdHealth — Moussaid: the vision-based heuristics of Moussaïd, Helbing & Theraulaz (2011).
 #pragma once
 
-#include "crowdhealth/registry.h"
+#include "crowdhealth/core/registry.h"
 
 namespace ch {
 

@@ -1,7 +1,7 @@
 // CrowdHealth — ORCA (van den Berg, Guy, Lin & Manocha 2011): half-planes and linear programs.
 #include "ORCA.h"
 
-#include "crowdhealth/geometry.h"
+#include "crowdhealth/core/geometry.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,7 +1,7 @@
 // CrowdHealth — ORCA: optimal reciprocal collision avoidance (van den Berg et al. 2011).
 #pragma once
 
-#include "crowdhealth/registry.h"
+#include "crowdhealth/core/registry.h"
 
 #include <cstddef>
 #include <optional>

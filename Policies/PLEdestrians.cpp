@@ -1,7 +1,7 @@
 // CrowdHealth — PLEdestrians (Guy et al. 2010), see PLEdestrians.h.
 #include "PLEdestrians.h"
 
-#include "crowdhealth/geometry.h"
+#include "crowdhealth/core/geometry.h"
 
 #include <algorithm>
 #include <cmath>

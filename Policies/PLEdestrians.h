@@ -1,7 +1,7 @@
 // CrowdHealth — PLEdestrians: least-effort velocity selection of Guy et al. (2010).
 #pragma once
 
-#include "crowdhealth/registry.h"
+#include "crowdhealth/core/registry.h"
 
 namespace ch {
 

@@ -1,7 +1,7 @@
 // CrowdHealth — Paris (Paris, Pettré & Donikian 2007).
 #include "Paris.h"
 
-#include "crowdhealth/geometry.h"
+#include "crowdhealth/core/geometry.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,7 +1,7 @@
 // CrowdHealth — Paris: predictive avoidance by admissible speeds per walking direction.
 #pragma once
 
-#include "crowdhealth/registry.h"
+#include "crowdhealth/core/registry.h"
 
 namespace ch {
 

@@ -1,7 +1,7 @@
 // CrowdHealth — PowerLaw (Karamouzas, Skinner & Guy 2014), see PowerLaw.h.
 #include "PowerLaw.h"
 
-#include "crowdhealth/geometry.h"
+#include "crowdhealth/core/geometry.h"
 
 #include <algorithm>
 #include <cmath>

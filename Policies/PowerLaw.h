@@ -1,7 +1,7 @@
 // CrowdHealth — PowerLaw: the time-to-collision interaction energy of Karamouzas, Skinner & Guy (2014).
 #pragma once
 
-#include "crowdhealth/registry.h"
+#include "crowdhealth/core/registry.h"
 
 namespace ch {
 

@@ -1,7 +1,7 @@
 // CrowdHealth — RVO (van den Berg, Lin & Manocha 2008): the penalty of a candidate velocity.
 #include "RVO.h"
 
-#include "crowdhealth/geometry.h"
+#include "crowdhealth/core/geometry.h"
 
 #include <algorithm>
 #include <cmath>

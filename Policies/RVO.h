@@ -1,7 +1,7 @@
 // CrowdHealth — RVO: reciprocal velocity obstacles (van den Berg, Lin & Manocha 2008).
 #pragma once
 
-#include "crowdhealth/registry.h"
+#include "crowdhealth/core/registry.h"
 
 namespace ch {
 

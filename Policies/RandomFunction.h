@@ -1,7 +1,7 @@
 // CrowdHealth — RandomFunction: random costs and gradients (noise for tests and experiments).
 #pragma once
 
-#include "crowdhealth/registry.h"
+#include "crowdhealth/core/registry.h"
 
 namespace ch {
 

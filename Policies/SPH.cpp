@@ -3,7 +3,7 @@
 
 #include "WallArea.h"
 
-#include "crowdhealth/kernels.h"
+#include "crowdhealth/core/kernels.h"
 
 #include <algorithm>
 #include <cmath>

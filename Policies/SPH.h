@@ -3,7 +3,7 @@
 // Computers & Graphics 98, 2021), as the CrowdHealth paper re-designs it (DESIGN §4).
 #pragma once
 
-#include "crowdhealth/registry.h"
+#include "crowdhealth/core/registry.h"
 
 #include <vector>
 

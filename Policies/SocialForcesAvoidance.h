@@ -1,7 +1,7 @@
 // CrowdHealth — SocialForcesAvoidance: Helbing & Molnár's repulsive social forces.
 #pragma once
 
-#include "crowdhealth/registry.h"
+#include "crowdhealth/core/registry.h"
 
 #include <vector>
 

@@ -1,7 +1,7 @@
 // CrowdHealth — TtcaDca (Dutra, Marques, Cavalcante-Neto, Vidal & Pettré 2017).
 #include "TtcaDca.h"
 
-#include "crowdhealth/geometry.h"
+#include "crowdhealth/core/geometry.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,7 +1,7 @@
 // CrowdHealth — TtcaDca: Dutra et al.'s vision-based cost on time and distance to closest approach.
 #pragma once
 
-#include "crowdhealth/registry.h"
+#include "crowdhealth/core/registry.h"
 
 #include <vector>
 

@@ -1,7 +1,7 @@
 // CrowdHealth — VanToll (van Toll & Pettré 2019).
 #include "VanToll.h"
 
-#include "crowdhealth/geometry.h"
+#include "crowdhealth/core/geometry.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,7 +1,7 @@
 // CrowdHealth — VanToll: distance to collision plus deviations from preferred and current motion.
 #pragma once
 
-#include "crowdhealth/registry.h"
+#include "crowdhealth/core/registry.h"
 
 namespace ch {
 

@@ -2,7 +2,7 @@
 // occlusion (van Toll et al. 2021's analytic walls as DESIGN §4 describes them).
 #pragma once
 
-#include "crowdhealth/geometry.h"
+#include "crowdhealth/core/geometry.h"
 
 #include <vector>
 

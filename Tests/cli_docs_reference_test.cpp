@@ -8,10 +8,10 @@
 
 #include "cli_support.h"
 
-#include <crowdhealth/health.h>
-#include <crowdhealth/registry.h>
-#include <crowdhealth/safety.h>
-#include <crowdhealth/xml.h>
+#include <crowdhealth/health/health.h>
+#include <crowdhealth/core/registry.h>
+#include <crowdhealth/health/safety.h>
+#include <crowdhealth/io/xml.h>
 
 #include <string>
 #include <vector>

@@ -6,7 +6,7 @@
 
 #include "cli_support.h"
 
-#include <crowdhealth/registry.h>
+#include <crowdhealth/core/registry.h>
 
 using namespace clitest;
 

@@ -6,7 +6,7 @@
 
 #include "cli_support.h"
 
-#include <crowdhealth/json.h>
+#include <crowdhealth/io/json.h>
 
 using namespace clitest;
 

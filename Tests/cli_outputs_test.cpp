@@ -5,7 +5,7 @@
 
 #include "cli_support.h"
 
-#include <crowdhealth/json.h>
+#include <crowdhealth/io/json.h>
 
 #include <cmath>
 #include <map>

@@ -9,7 +9,7 @@
 
 #include "cli_support.h"
 
-#include <crowdhealth/json.h>
+#include <crowdhealth/io/json.h>
 
 #include <algorithm>
 #include <cmath>

@@ -11,7 +11,7 @@
 
 #include "cli_support.h"
 
-#include <crowdhealth/json.h>
+#include <crowdhealth/io/json.h>
 
 #include <map>
 

@@ -7,7 +7,7 @@
 
 #include "cli_support.h"
 
-#include <crowdhealth/output.h>
+#include <crowdhealth/io/output.h>
 
 #include <bit>
 #include <cmath>

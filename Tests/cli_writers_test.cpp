@@ -1,12 +1,12 @@
-// The output writers of crowdhealth/output.h on their own: atomic files, number formatting,
+// The output writers of crowdhealth/io/output.h on their own: atomic files, number formatting,
 // crowd pressure, flow.
 #define BOOST_TEST_MODULE cli_writers
 #include <boost/test/unit_test.hpp>
 
 #include "cli_support.h"
 
-#include <crowdhealth/json.h>
-#include <crowdhealth/output.h>
+#include <crowdhealth/io/json.h>
+#include <crowdhealth/io/output.h>
 
 #include <clocale>
 #include <cmath>

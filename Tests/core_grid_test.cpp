@@ -2,8 +2,8 @@
 #define BOOST_TEST_MODULE core_grid
 #include <boost/test/unit_test.hpp>
 
-#include "crowdhealth/grid.h"
-#include "crowdhealth/rng.h"
+#include "crowdhealth/core/grid.h"
+#include "crowdhealth/core/rng.h"
 
 #include <algorithm>
 #include <cmath>

@@ -7,7 +7,7 @@
 
 #include "test_support.h"
 
-#include "crowdhealth/simulation.h"
+#include "crowdhealth/core/simulation.h"
 
 #include <cmath>
 

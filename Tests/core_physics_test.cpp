@@ -4,8 +4,8 @@
 #include <boost/test/unit_test.hpp>
 
 #include "SocialForcesAvoidance.h"
-#include "crowdhealth/kernels.h"
-#include "crowdhealth/rng.h"
+#include "crowdhealth/core/kernels.h"
+#include "crowdhealth/core/rng.h"
 #include "test_support.h"
 
 #include <cmath>

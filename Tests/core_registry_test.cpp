@@ -2,7 +2,7 @@
 #define BOOST_TEST_MODULE core_registry
 #include <boost/test/unit_test.hpp>
 
-#include "crowdhealth/registry.h"
+#include "crowdhealth/core/registry.h"
 
 using namespace ch;
 

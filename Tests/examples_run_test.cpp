@@ -3,8 +3,8 @@
 #define BOOST_TEST_MODULE examples_run
 #include <boost/test/unit_test.hpp>
 
-#include "crowdhealth/simulation.h"
-#include "crowdhealth/xml.h"
+#include "crowdhealth/core/simulation.h"
+#include "crowdhealth/io/xml.h"
 
 #include <tinyxml2.h>
 

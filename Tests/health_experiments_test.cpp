@@ -7,9 +7,9 @@
 #define BOOST_TEST_MODULE health_experiments
 #include <boost/test/unit_test.hpp>
 
-#include "crowdhealth/output.h"
-#include "crowdhealth/simulation.h"
-#include "crowdhealth/xml.h"
+#include "crowdhealth/io/output.h"
+#include "crowdhealth/core/simulation.h"
+#include "crowdhealth/io/xml.h"
 
 #include <algorithm>
 #include <cmath>

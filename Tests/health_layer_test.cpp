@@ -1,4 +1,4 @@
-// CrowdHealth tests — the CrowdHealth layer and schedules (Library/include/crowdhealth/health.h,
+// CrowdHealth tests — the CrowdHealth layer and schedules (Library/include/crowdhealth/health/health.h,
 // scenario.h RampSpec): ramps hit their exact values, panic raises the preferred speed, contagion
 // spreads along a line at the configured rate, the dose grows only above the threshold, injury
 // lowers the speeds.
@@ -7,8 +7,8 @@
 
 #include "test_support.h"
 
-#include "crowdhealth/health.h"
-#include "crowdhealth/output.h"
+#include "crowdhealth/health/health.h"
+#include "crowdhealth/io/output.h"
 
 #include <cmath>
 

@@ -1,14 +1,14 @@
 // CrowdHealth tests — the safety verdict, the crowd measures on a grid and the heat map
-// (Library/include/crowdhealth/safety.h): a sparse crowd walking freely is safe, the base-case
+// (Library/include/crowdhealth/health/safety.h): a sparse crowd walking freely is safe, the base-case
 // door is at least dangerous.
 #define BOOST_TEST_MODULE health_verdict
 #include <boost/test/unit_test.hpp>
 
 #include "test_support.h"
 
-#include "crowdhealth/output.h"
-#include "crowdhealth/safety.h"
-#include "crowdhealth/xml.h"
+#include "crowdhealth/io/output.h"
+#include "crowdhealth/health/safety.h"
+#include "crowdhealth/io/xml.h"
 
 #include <algorithm>
 #include <cmath>

@@ -3,10 +3,10 @@
 #define BOOST_TEST_MODULE health_xml
 #include <boost/test/unit_test.hpp>
 
-#include "crowdhealth/health.h"
-#include "crowdhealth/output.h"
-#include "crowdhealth/simulation.h"
-#include "crowdhealth/xml.h"
+#include "crowdhealth/health/health.h"
+#include "crowdhealth/io/output.h"
+#include "crowdhealth/core/simulation.h"
+#include "crowdhealth/io/xml.h"
 
 #include <cmath>
 #include <sstream>

@@ -6,8 +6,8 @@
 #include "ORCA.h"
 #include "RVO.h"
 
-#include "crowdhealth/geometry.h"
-#include "crowdhealth/rng.h"
+#include "crowdhealth/core/geometry.h"
+#include "crowdhealth/core/rng.h"
 
 #include <cmath>
 #include <memory>

@@ -8,8 +8,8 @@
 #include "PLEdestrians.h"
 #include "PowerLaw.h"
 
-#include "crowdhealth/rng.h"
-#include "crowdhealth/xml.h"
+#include "crowdhealth/core/rng.h"
+#include "crowdhealth/io/xml.h"
 
 #include <cmath>
 #include <memory>

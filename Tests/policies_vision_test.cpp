@@ -11,10 +11,10 @@
 #include "RandomFunction.h"
 #include "TtcaDca.h"
 #include "VanToll.h"
-#include "crowdhealth/diagnostics.h"
-#include "crowdhealth/geometry.h"
-#include "crowdhealth/rng.h"
-#include "crowdhealth/xml.h"
+#include "crowdhealth/io/diagnostics.h"
+#include "crowdhealth/core/geometry.h"
+#include "crowdhealth/core/rng.h"
+#include "crowdhealth/io/xml.h"
 
 #include <cmath>
 #include <filesystem>

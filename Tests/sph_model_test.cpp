@@ -8,9 +8,9 @@
 #include "WallArea.h"
 #include "test_support.h"
 
-#include "crowdhealth/kernels.h"
-#include "crowdhealth/rng.h"
-#include "crowdhealth/xml.h"
+#include "crowdhealth/core/kernels.h"
+#include "crowdhealth/core/rng.h"
+#include "crowdhealth/io/xml.h"
 
 #include <cmath>
 #include <memory>

@@ -5,8 +5,8 @@
 #define BOOST_TEST_MODULE sph_reference
 #include <boost/test/unit_test.hpp>
 
-#include "crowdhealth/simulation.h"
-#include "crowdhealth/xml.h"
+#include "crowdhealth/core/simulation.h"
+#include "crowdhealth/io/xml.h"
 
 #include <cmath>
 #include <string>

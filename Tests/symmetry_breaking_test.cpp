@@ -8,8 +8,8 @@
 
 #include "test_support.h"
 
-#include "crowdhealth/diagnostics.h"
-#include "crowdhealth/xml.h"
+#include "crowdhealth/io/diagnostics.h"
+#include "crowdhealth/io/xml.h"
 
 #include <cmath>
 #include <filesystem>

@@ -1,9 +1,9 @@
 // CrowdHealth tests — building scenarios by hand and running them (no XML involved).
 #pragma once
 
-#include "crowdhealth/registry.h"
-#include "crowdhealth/scenario.h"
-#include "crowdhealth/simulation.h"
+#include "crowdhealth/core/registry.h"
+#include "crowdhealth/core/scenario.h"
+#include "crowdhealth/core/simulation.h"
 
 #include <algorithm>
 #include <cmath>

@@ -9,9 +9,9 @@
 #define BOOST_TEST_MODULE vantoll_blend
 #include <boost/test/unit_test.hpp>
 
-#include "crowdhealth/policy.h"
-#include "crowdhealth/simulation.h"
-#include "crowdhealth/xml.h"
+#include "crowdhealth/core/policy.h"
+#include "crowdhealth/core/simulation.h"
+#include "crowdhealth/io/xml.h"
 #include "test_support.h"
 
 #include <algorithm>

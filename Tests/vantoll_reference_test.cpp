@@ -20,8 +20,8 @@
 #define BOOST_TEST_MODULE vantoll_reference
 #include <boost/test/unit_test.hpp>
 
-#include "crowdhealth/simulation.h"
-#include "crowdhealth/xml.h"
+#include "crowdhealth/core/simulation.h"
+#include "crowdhealth/io/xml.h"
 
 #include <algorithm>
 #include <cmath>

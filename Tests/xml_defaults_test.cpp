@@ -6,9 +6,9 @@
 
 #include "test_support.h"
 
-#include "crowdhealth/safety.h"
-#include "crowdhealth/simulation.h"
-#include "crowdhealth/xml.h"
+#include "crowdhealth/health/safety.h"
+#include "crowdhealth/core/simulation.h"
+#include "crowdhealth/io/xml.h"
 
 #include <algorithm>
 #include <filesystem>

@@ -2,8 +2,8 @@
 #define BOOST_TEST_MODULE xml_diagnostics
 #include <boost/test/unit_test.hpp>
 
-#include "crowdhealth/diagnostics.h"
-#include "crowdhealth/params.h"
+#include "crowdhealth/io/diagnostics.h"
+#include "crowdhealth/core/params.h"
 
 #include <sstream>
 #include <stdexcept>

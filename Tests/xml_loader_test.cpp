@@ -4,8 +4,8 @@
 #define BOOST_TEST_MODULE xml_loader
 #include <boost/test/unit_test.hpp>
 
-#include "crowdhealth/registry.h"
-#include "crowdhealth/xml.h"
+#include "crowdhealth/core/registry.h"
+#include "crowdhealth/io/xml.h"
 
 #include <algorithm>
 #include <cmath>

@@ -7,8 +7,8 @@
 #define BOOST_TEST_MODULE xml_umans_examples
 #include <boost/test/unit_test.hpp>
 
-#include "crowdhealth/registry.h"
-#include "crowdhealth/xml.h"
+#include "crowdhealth/core/registry.h"
+#include "crowdhealth/io/xml.h"
 
 #include <algorithm>
 #include <filesystem>

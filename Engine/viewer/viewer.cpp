@@ -9,7 +9,7 @@
 #include "render_scene.h"
 #include "screenshot.h"
 
-#include <crowdhealth/simulation.h>
+#include <crowdhealth/core/simulation.h>
 
 #include <GLFW/glfw3.h>
 

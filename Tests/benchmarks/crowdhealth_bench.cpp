@@ -6,13 +6,13 @@
 //
 // Every case runs in its own forked child process, so the peak memory (VmHWM) is that case's
 // own (the parent never starts an OpenMP region, so forking is safe with libgomp).
-#include "crowdhealth/grid.h"
-#include "crowdhealth/kernels.h"
-#include "crowdhealth/output.h"
-#include "crowdhealth/registry.h"
-#include "crowdhealth/safety.h"
-#include "crowdhealth/scenario.h"
-#include "crowdhealth/simulation.h"
+#include "crowdhealth/core/grid.h"
+#include "crowdhealth/core/kernels.h"
+#include "crowdhealth/io/output.h"
+#include "crowdhealth/core/registry.h"
+#include "crowdhealth/health/safety.h"
+#include "crowdhealth/core/scenario.h"
+#include "crowdhealth/core/simulation.h"
 
 #include "../test_support.h"
 

@@ -1,9 +1,9 @@
 // Prints a libFuzzer dictionary for the scenario loader: every element name the loader knows,
 // every registered component with its parameters, and the attributes of the parameter tables
 // the library exposes (<Safety>, <CrowdHealth>), as "token" lines. scripts/fuzz.sh runs it.
-#include "crowdhealth/health.h"
-#include "crowdhealth/registry.h"
-#include "crowdhealth/safety.h"
+#include "crowdhealth/health/health.h"
+#include "crowdhealth/core/registry.h"
+#include "crowdhealth/health/safety.h"
 
 #include <iostream>
 #include <set>

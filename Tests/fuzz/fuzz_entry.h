@@ -10,8 +10,8 @@
 // outcome but a crash, a sanitizer report, a hang or an unbounded allocation is fine.
 #pragma once
 
-#include "crowdhealth/simulation.h"
-#include "crowdhealth/xml.h"
+#include "crowdhealth/core/simulation.h"
+#include "crowdhealth/io/xml.h"
 
 #include "plot_data.h"
 #include "trajectory_read.h"

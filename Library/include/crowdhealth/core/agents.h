@@ -1,0 +1,66 @@
+// CrowdHealth — the active agents as a structure of arrays (hot data in contiguous columns).
+#pragma once
+
+#include "crowdhealth/core/types.h"
+
+#include <vector>
+
+namespace ch {
+
+struct AgentSpec;
+
+/// Columns of the agents that are currently in the world. Index i is the same in every column.
+/// The order is the order in which agents were activated; removal keeps the order of the rest,
+/// so every run with the same input visits agents in the same order.
+struct AgentStore {
+    // identity and attributes (cold-ish)
+    std::vector<AgentId> id;
+    std::vector<int> record;              ///< index of the agent's HealthLayer record; -1: added by hand
+    std::vector<int> policy;              ///< index into Simulation::policies()
+    std::vector<double> radius;           ///< m
+    std::vector<double> prefSpeed;        ///< m/s, in effect this step (base, raised by panic, lowered by injury)
+    std::vector<double> maxSpeed;         ///< m/s, in effect this step (base, lowered by injury)
+    std::vector<double> basePrefSpeed;    ///< m/s, the agent's attribute (file or schedule)
+    std::vector<double> baseMaxSpeed;     ///< m/s, the agent's attribute (file or schedule)
+    std::vector<double> maxAcceleration;  ///< m/s²
+    std::vector<double> mass;             ///< dimensionless mass factor
+    std::vector<double> goalRadius;       ///< m
+    std::vector<unsigned char> removeAtGoal;
+    std::vector<unsigned char> hasGoal;
+    std::vector<Vec2> goal;               ///< m
+
+    // state (hot)
+    std::vector<Vec2> pos;      ///< m
+    std::vector<Vec2> vel;      ///< m/s
+    std::vector<Vec2> prefVel;  ///< m/s, towards the goal at preferred speed (0 at the goal)
+    std::vector<Vec2> viewDir;  ///< unit vector (UMANS' viewing direction)
+
+    // measurements of the last step (written by the simulation, read by recorders)
+    std::vector<double> density;      ///< SPH density with h = 1 m, walls included (1/m² × mass)
+    std::vector<Vec2> contactAccel;   ///< sum of contact accelerations of the last step (m/s²)
+
+    std::size_t size() const { return id.size(); }
+    bool empty() const { return id.empty(); }
+
+    /// Appends one agent from its spec; `record` is its HealthLayer record (HealthLayer::recordFor).
+    /// Returns its index.
+    std::size_t add(const AgentSpec& spec, int policyIndex, int record = -1);
+    /// Removes every agent i with remove[i] != 0, keeping the order of the others.
+    void removeMarked(const std::vector<unsigned char>& remove);
+    /// True when agent i is within its goal radius of its goal.
+    bool atGoal(std::size_t i) const;
+    /// Re-orders every column: agent k of the result is agent order[k] of now (a permutation).
+    void permute(const std::vector<int>& order);
+    /// Room for n agents in every column (one allocation each instead of repeated doubling).
+    void reserve(std::size_t n);
+
+    /// Calls f(column) for every column above (a new column must be added here too).
+    template <class F>
+    void forEachColumn(F&& f) {
+        f(id), f(record), f(policy), f(radius), f(prefSpeed), f(maxSpeed), f(basePrefSpeed), f(baseMaxSpeed);
+        f(maxAcceleration), f(mass), f(goalRadius), f(removeAtGoal), f(hasGoal), f(goal);
+        f(pos), f(vel), f(prefVel), f(viewDir), f(density), f(contactAccel);
+    }
+};
+
+}  // namespace ch

@@ -1,0 +1,161 @@
+// CrowdHealth — uniform-grid neighbour search (cell = largest interaction range, std::floor
+// indexing, rebuilt each step with a counting sort), for agents and for static wall segments.
+#pragma once
+
+#include "crowdhealth/core/geometry.h"
+#include "crowdhealth/core/types.h"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+namespace ch {
+
+/// Points (agent positions) bucketed in square cells. Supports a toric (periodic) domain.
+class PointGrid {
+public:
+    /// Rebuilds the grid over `points`. `cellSize` > 0 should be the largest query radius.
+    /// If `periodic`, the domain is [-width/2, width/2) × [-height/2, height/2) and queries wrap.
+    void build(const std::vector<Vec2>& points, double cellSize, bool periodic = false, double width = 0,
+               double height = 0);
+
+    /// Calls f(j, offset, distSq) for every point j with |offset| <= radius, where offset is
+    /// (points[j] - p), the shortest such vector on a torus. The query point's own index is not
+    /// skipped: callers that need "others only" compare j themselves. Visit order is deterministic.
+    template <class F>
+    void forEachWithin(const Vec2& p, double radius, F&& f) const;
+
+    /// Calls f(j, offset, distSq) for every point forEachWithin(p, radius, ·) examines — the
+    /// points of the cells the query disc touches, in the same order — whether or not it lies
+    /// within `radius` (candidateCount(p, radius) calls). For callers that test the distance
+    /// without a branch (a list append that always writes and advances by the test's outcome):
+    /// in a crowd whose listing order within cells is irregular, the branch of forEachWithin is
+    /// mispredicted often enough to cost a third of the neighbour search (docs/performance.md).
+    template <class F>
+    void forEachCandidate(const Vec2& p, double radius, F&& f) const;
+
+    /// How many points forEachWithin(p, radius, f) examines: an upper bound of how many it reports.
+    std::size_t candidateCount(const Vec2& p, double radius) const;
+
+    /// Collects the indices within radius (for tests and simple callers).
+    std::vector<int> within(const Vec2& p, double radius) const;
+
+    /// The point indices grouped by cell, cells row by row (y outer), ascending within a cell.
+    const std::vector<int>& order() const { return sorted_; }
+
+    /// Cell width (x) actually used (≥ the requested size; larger for far-flung points).
+    double cellSize() const { return cw_; }
+
+private:
+    const std::vector<Vec2>* points_ = nullptr;
+    double cw_ = 1, ch_ = 1;  ///< cell width and height (m); equal except on a torus
+    bool periodic_ = false;
+    double width_ = 0, height_ = 0;
+    Vec2 origin_{0, 0};
+    int nx_ = 1, ny_ = 1;
+    std::vector<int> cellStart_;  ///< size nx*ny+1, counting-sort offsets
+    std::vector<int> sorted_;     ///< point indices, grouped by cell (row-major cells)
+    std::vector<Vec2> sortedPos_; ///< points[sorted_[k]]: queries read positions contiguously
+    std::vector<int> cellOf_, fill_;  ///< build scratch, kept to avoid allocating every step
+
+    int cellX(double x) const { return static_cast<int>(std::floor((x - origin_.x()) / cw_)); }
+    /// floor(v) for a cell coordinate, limited to [-1, n] (NaN gives -1) without calling floor.
+    static int floorClamped(double v, int n) {
+        if (!(v >= 0)) return -1;
+        return v >= n ? n : static_cast<int>(v);
+    }
+    int cellY(double y) const { return static_cast<int>(std::floor((y - origin_.y()) / ch_)); }
+
+    /// Cells touched by the query disc's bounding box (plane only), padded by 1 µm so that
+    /// rounding never drops a point at exactly `radius`; x0 > x1 when it misses the grid.
+    struct CellBox {
+        int x0, x1, y0, y1;
+    };
+    CellBox boxAround(const Vec2& p, double radius) const {
+        const double reach = radius + 1e-6;
+        const double ix = 1.0 / cw_, iy = 1.0 / ch_;
+        return CellBox{std::max(0, floorClamped((p.x() - reach - origin_.x()) * ix, nx_)),
+                       std::min(nx_ - 1, floorClamped((p.x() + reach - origin_.x()) * ix, nx_)),
+                       std::max(0, floorClamped((p.y() - reach - origin_.y()) * iy, ny_)),
+                       std::min(ny_ - 1, floorClamped((p.y() + reach - origin_.y()) * iy, ny_))};
+    }
+    /// Periodic queries: the first cell and the number of cells visited along x and y.
+    void periodicSpan(const Vec2& p, double radius, int& cx, int& cy, int& sx, int& sy) const {
+        const int rx = static_cast<int>(std::ceil(radius / cw_));
+        const int ry = static_cast<int>(std::ceil(radius / ch_));
+        cx = cellX(p.x()) - rx;
+        cy = cellY(p.y()) - ry;
+        sx = std::min(2 * rx + 1, nx_);
+        sy = std::min(2 * ry + 1, ny_);
+    }
+};
+
+/// Static wall segments bucketed in square cells (built once).
+class SegmentGrid {
+public:
+    void build(const std::vector<Segment>& segments, double cellSize);
+    /// Indices of the segments that come within `radius` of p (each once, ascending).
+    void near(const Vec2& p, double radius, std::vector<int>& out) const;
+    bool empty() const { return segments_ == nullptr || segments_->empty(); }
+
+private:
+    const std::vector<Segment>* segments_ = nullptr;
+    double cell_ = 1;
+    Vec2 origin_{0, 0};
+    int nx_ = 0, ny_ = 0;
+    std::vector<int> cellStart_;  ///< size nx*ny+1: the segments of cell c are items_[start[c], start[c+1])
+    std::vector<int> items_;
+};
+
+// ---- template implementation -------------------------------------------------------------
+
+template <class F>
+void PointGrid::forEachCandidate(const Vec2& query, double radius, F&& f) const {
+    if (points_ == nullptr || sorted_.empty()) return;
+    const Vec2 p = query;  // a local copy: f may store to memory the query point could alias
+    if (!periodic_) {
+        // Only the cells touched by the query disc's bounding box (boxAround). Cells of one row
+        // are contiguous in sorted_, so each row is one run over sortedPos_. The visit order (rows,
+        // then cells, then ascending index) is the same as scanning whole cells, so sums over
+        // neighbours do not change.
+        // (Multiplying by the inverse cell size may round differently from the division used to
+        // bin the points, by far less than the pad.)
+        const CellBox b = boxAround(p, radius);
+        if (b.x0 > b.x1) return;
+        for (int y = b.y0; y <= b.y1; ++y) {
+            const int row = y * nx_;
+            const int end = cellStart_[row + b.x1 + 1];
+            for (int k = cellStart_[row + b.x0]; k < end; ++k) {
+                const Vec2 d = sortedPos_[k] - p;
+                f(sorted_[k], d, d.squaredNorm());
+            }
+        }
+        return;
+    }
+    // Periodic: visit each distinct wrapped cell once, then use the minimum-image offset.
+    // (With radius > half a period only the nearest image of each point is reported.)
+    int cx, cy, sx, sy;
+    periodicSpan(p, radius, cx, cy, sx, sy);
+    for (int oy = 0; oy < sy; ++oy)
+        for (int ox = 0; ox < sx; ++ox) {
+            const int x = ((cx + ox) % nx_ + nx_) % nx_;
+            const int y = ((cy + oy) % ny_ + ny_) % ny_;
+            const int c = y * nx_ + x;
+            for (int k = cellStart_[c]; k < cellStart_[c + 1]; ++k) {
+                Vec2 d = sortedPos_[k] - p;
+                d.x() -= width_ * std::round(d.x() / width_);
+                d.y() -= height_ * std::round(d.y() / height_);
+                f(sorted_[k], d, d.squaredNorm());
+            }
+        }
+}
+
+template <class F>
+void PointGrid::forEachWithin(const Vec2& query, double radius, F&& f) const {
+    const double r2 = radius * radius;
+    forEachCandidate(query, radius, [&](int j, const Vec2& d, double d2) {
+        if (d2 <= r2) f(j, d, d2);
+    });
+}
+
+}  // namespace ch

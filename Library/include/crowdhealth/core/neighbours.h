@@ -1,0 +1,119 @@
+// CrowdHealth — per-step neighbour lists: every agent's neighbouring agents and wall segments,
+// found once per step and shared by all components (SPH density, contact, the per-agent calls).
+#pragma once
+
+#include "crowdhealth/core/grid.h"
+#include "crowdhealth/core/types.h"
+
+#include <algorithm>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <vector>
+
+namespace ch {
+
+class World;
+
+/// A neighbouring agent of the query agent: 24 bytes (a million agents have ~14 million of them,
+/// so the distance is not stored: distance() recomputes exactly the value |offset| the grid saw).
+struct NeighbourAgent {
+    /// pos[j] - pos[i], shortest on a torus (m). Stored without Vec2's 16-byte alignment (which
+    /// would pad the entry to 32 bytes); it converts to Vec2 wherever one is expected.
+    Eigen::Matrix<double, 2, 1, Eigen::DontAlign> offset;
+    int index;    ///< index j in AgentStore
+
+    double distanceSquared() const { return offset.squaredNorm(); }
+    double distance() const { return offset.norm(); }  ///< |offset| (m); costs a square root
+};
+static_assert(sizeof(NeighbourAgent) == 24, "NeighbourAgent should stay 24 bytes (memory at 1M agents)");
+
+/// The neighbourhoods of one step. Agent i's list holds every other agent within radius(i) (in
+/// the grid's visit order, so sums over it do not depend on the thread count) and every wall
+/// segment within radius(i) (ascending index). Built in parallel into per-thread buffers that are
+/// kept from step to step, so a step allocates nothing once the buffers have grown.
+/// Memory: 24 bytes per neighbour pair within range (about 14 per agent in a dense SPH crowd).
+class NeighbourLists {
+public:
+    /// Rebuilds the lists for `positions` from `grid` (built over the same positions with a cell
+    /// of at least the largest radius). Agent i's radius is rangeOfGroup[group[i]].
+    void build(const std::vector<Vec2>& positions, const PointGrid& grid, const World& world,
+               const std::vector<int>& group, const std::vector<double>& rangeOfGroup);
+
+    std::size_t size() const { return agentSlice_.size(); }
+    /// The radius (m) agent i's lists were gathered with.
+    double radius(std::size_t i) const { return rangeOfGroup_[static_cast<std::size_t>((*group_)[i])]; }
+    /// Other agents within radius(i).
+    std::span<const NeighbourAgent> agents(std::size_t i) const {
+        const Slice& s = agentSlice_[i];
+        return {agentBuffers_[s.thread].data(s.block, s.begin), s.count};
+    }
+    /// Wall segments within radius(i), ascending.
+    std::span<const int> segments(std::size_t i) const {
+        const Slice& s = segmentSlice_[i];
+        return {segmentBuffers_[s.thread].data(s.block, s.begin), s.count};
+    }
+
+private:
+    /// Where a list starts: block and offset in a BlockBuffer.
+    struct Place {
+        std::size_t block = 0, begin = 0;
+    };
+
+    /// Append-only storage made of blocks that never reallocate. A list is written in place after
+    /// asking for room for its largest possible size (the grid's candidate count); if the current
+    /// block lacks that room the list starts in the next block. So every list is contiguous,
+    /// views stay valid, nothing is copied, and memory is the lists' size plus a little slack.
+    template <class T>
+    class BlockBuffer {
+    public:
+        /// Forgets the contents, keeps the blocks.
+        void clear() {
+            for (Block& b : blocks_) b.used = 0;
+            current_ = 0;
+        }
+        /// Room for up to `most` entries of a new list: sets `at` and returns where to write.
+        T* open(Place& at, std::size_t most) {
+            if (blocks_.empty()) blocks_.emplace_back();
+            if (blocks_[current_].used + most > blocks_[current_].capacity && blocks_[current_].used > 0) {
+                ++current_;
+                if (blocks_.size() <= current_) blocks_.emplace_back();
+            }
+            Block& b = blocks_[current_];
+            if (b.capacity < b.used + most) {  // a fresh or too small (empty) block
+                b.capacity = std::max(kBlock, most);
+                b.data = std::make_unique_for_overwrite<T[]>(b.capacity);
+            }
+            at = Place{current_, b.used};
+            return b.data.get() + b.used;
+        }
+        /// The list opened at `at` holds `count` entries.
+        void close(const Place& at, std::size_t count) { blocks_[at.block].used = at.begin + count; }
+        const T* data(std::uint32_t block, std::uint32_t begin) const { return blocks_[block].data.get() + begin; }
+
+    private:
+        static constexpr std::size_t kBlock = std::size_t{1} << 16;  ///< entries per block
+        struct Block {
+            std::unique_ptr<T[]> data;
+            std::size_t capacity = 0, used = 0;
+        };
+        std::vector<Block> blocks_;
+        std::size_t current_ = 0;
+    };
+
+    /// One agent's list: 16 bytes (a million agents have two of them).
+    struct Slice {
+        std::uint32_t thread, block, begin, count;
+    };
+    static Slice slice(int thread, const Place& at, std::size_t count);
+
+    std::vector<BlockBuffer<NeighbourAgent>> agentBuffers_;  ///< one per thread
+    std::vector<BlockBuffer<int>> segmentBuffers_;           ///< one per thread
+    std::vector<std::vector<int>> scratch_;                  ///< one per thread: segment query
+    std::vector<Slice> agentSlice_, segmentSlice_;           ///< per agent, into the buffers
+    const std::vector<int>* group_ = nullptr;
+    std::vector<double> rangeOfGroup_;
+};
+
+}  // namespace ch

@@ -1,0 +1,30 @@
+// CrowdHealth — loading scenarios from XML (both UMANS dialects plus CrowdHealth's extensions).
+#pragma once
+
+#include "crowdhealth/io/diagnostics.h"
+#include "crowdhealth/core/params.h"
+#include "crowdhealth/core/scenario.h"
+
+#include <cstdint>
+#include <optional>
+#include <string>
+
+namespace ch {
+
+struct LoadOptions {
+    /// Overrides Simulation@seed (used by --seed and replications). Generated agents
+    /// (<AgentGrid>, <SpawnRectangle>) draw their random radii/noise from the final seed.
+    std::optional<std::uint64_t> seed;
+};
+
+/// Loads a scenario file and every file it names (relative paths resolve against the file that
+/// names them). Every problem found is added to `diags` as `path:line: error: …`; returns
+/// std::nullopt when there was at least one error. Nothing is simulated or written.
+std::optional<ScenarioSpec> loadScenario(const std::string& path, Diagnostics& diags,
+                                         const LoadOptions& options = {});
+
+/// The attributes of <Simulation> with their units, defaults and ranges (the loader's table; the
+/// hand-written table of docs/xml-reference.md is checked against it).
+const ParamTable& simulationTable();
+
+}  // namespace ch

@@ -1,0 +1,70 @@
+// CrowdHealth — the agent columns.
+#include "crowdhealth/core/agents.h"
+
+#include "crowdhealth/core/scenario.h"
+
+#include <type_traits>
+
+namespace ch {
+
+std::size_t AgentStore::add(const AgentSpec& s, int policyIndex, int recordIndex) {
+    id.push_back(s.id);
+    record.push_back(recordIndex);
+    policy.push_back(policyIndex);
+    radius.push_back(s.radius);
+    prefSpeed.push_back(s.prefSpeed);
+    maxSpeed.push_back(s.maxSpeed);
+    basePrefSpeed.push_back(s.prefSpeed);
+    baseMaxSpeed.push_back(s.maxSpeed);
+    maxAcceleration.push_back(s.maxAcceleration);
+    mass.push_back(s.mass);
+    goalRadius.push_back(s.goalRadius >= 0 ? s.goalRadius : s.radius);
+    removeAtGoal.push_back(s.removeAtGoal ? 1 : 0);
+    hasGoal.push_back(s.goal ? 1 : 0);
+    goal.push_back(s.goal ? *s.goal : s.position);
+    pos.push_back(s.position);
+    vel.push_back(Vec2(0, 0));
+    prefVel.push_back(Vec2(0, 0));
+    // UMANS: an agent starts looking towards its goal.
+    const Vec2 toGoal = goal.back() - s.position;
+    viewDir.push_back(toGoal.squaredNorm() > 0 ? Vec2(toGoal.normalized()) : Vec2(1, 0));
+    density.push_back(0.0);
+    contactAccel.push_back(Vec2(0, 0));
+    return id.size() - 1;
+}
+
+namespace {
+template <class T>
+void compact(std::vector<T>& v, const std::vector<unsigned char>& remove) {
+    std::size_t w = 0;
+    for (std::size_t r = 0; r < v.size(); ++r)
+        if (!remove[r]) {
+            if (w != r) v[w] = std::move(v[r]);
+            ++w;
+        }
+    v.resize(w);
+}
+}  // namespace
+
+void AgentStore::removeMarked(const std::vector<unsigned char>& remove) {
+    forEachColumn([&](auto& column) { compact(column, remove); });
+}
+
+void AgentStore::permute(const std::vector<int>& order) {
+    forEachColumn([&](auto& column) {
+        std::remove_reference_t<decltype(column)> out(order.size());
+        for (std::size_t k = 0; k < order.size(); ++k) out[k] = column[static_cast<std::size_t>(order[k])];
+        column.swap(out);
+    });
+}
+
+void AgentStore::reserve(std::size_t n) {
+    forEachColumn([n](auto& column) { column.reserve(n); });
+}
+
+bool AgentStore::atGoal(std::size_t i) const {
+    if (!hasGoal[i]) return true;
+    return (goal[i] - pos[i]).squaredNorm() <= goalRadius[i] * goalRadius[i];
+}
+
+}  // namespace ch

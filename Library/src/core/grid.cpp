@@ -1,0 +1,180 @@
+// CrowdHealth — uniform-grid neighbour search.
+#include "crowdhealth/core/grid.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace ch {
+
+namespace {
+// Cap on the number of cells: beyond it the cell size grows (sparse, far-flung agents such as
+// UMANS' goals at x = 50 km would otherwise ask for millions of empty cells).
+constexpr long long kMaxCells = 1 << 22;
+
+/// The cells of side `cell` (doubled until there are at most kMaxCells) covering [lo, hi]. The
+/// counts are computed in floating point first: over a huge extent (a point 1e15 m away) the
+/// number of cells does not fit an int, and casting it would be undefined.
+void cellsCovering(const Vec2& lo, const Vec2& hi, double& cell, int& nx, int& ny) {
+    for (;;) {
+        const double fx = std::floor((hi.x() - lo.x()) / cell) + 1;
+        const double fy = std::floor((hi.y() - lo.y()) / cell) + 1;
+        if (!(fx * fy < kInf) || !(cell < kInf)) {  // NaN or infinite extent: one cell
+            nx = ny = 1;
+            return;
+        }
+        if (fx * fy <= static_cast<double>(kMaxCells)) {
+            nx = static_cast<int>(fx);
+            ny = static_cast<int>(fy);
+            return;
+        }
+        cell *= 2;
+    }
+}
+}  // namespace
+
+void PointGrid::build(const std::vector<Vec2>& points, double cellSize, bool periodic, double width,
+                      double height) {
+    points_ = &points;
+    periodic_ = periodic;
+    width_ = width;
+    height_ = height;
+    const double cell = cellSize > 0 ? cellSize : 1.0;
+    if (periodic_) {
+        // A whole number of cells per period, each at least `cell` wide and high.
+        nx_ = std::max(1, static_cast<int>(std::floor(width_ / cell)));
+        ny_ = std::max(1, static_cast<int>(std::floor(height_ / cell)));
+        cw_ = width_ / nx_;
+        ch_ = height_ / ny_;
+        origin_ = Vec2(-0.5 * width_, -0.5 * height_);
+    } else {
+        Vec2 lo(0, 0), hi(0, 0);
+        if (!points.empty()) {
+            lo = hi = points[0];
+            for (const Vec2& p : points) {
+                lo = lo.cwiseMin(p);
+                hi = hi.cwiseMax(p);
+            }
+        }
+        cw_ = cell;
+        cellsCovering(lo, hi, cw_, nx_, ny_);
+        ch_ = cw_;
+        origin_ = lo;
+    }
+    const int ncells = nx_ * ny_;
+    const std::size_t n = points.size();
+    cellStart_.assign(ncells + 1, 0);
+    cellOf_.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        int x = cellX(points[i].x()), y = cellY(points[i].y());
+        if (periodic_) {
+            x = ((x % nx_) + nx_) % nx_;
+            y = ((y % ny_) + ny_) % ny_;
+        } else {
+            x = std::clamp(x, 0, nx_ - 1);
+            y = std::clamp(y, 0, ny_ - 1);
+        }
+        cellOf_[i] = y * nx_ + x;
+        ++cellStart_[cellOf_[i] + 1];
+    }
+    for (int c = 0; c < ncells; ++c) cellStart_[c + 1] += cellStart_[c];
+    sorted_.resize(n);
+    sortedPos_.resize(n);
+    fill_.assign(cellStart_.begin(), cellStart_.end() - 1);
+    // Counting sort, stable: within a cell, indices stay ascending.
+    for (std::size_t i = 0; i < n; ++i) {
+        const int k = fill_[cellOf_[i]]++;
+        sorted_[k] = static_cast<int>(i);
+        sortedPos_[k] = points[i];
+    }
+}
+
+std::size_t PointGrid::candidateCount(const Vec2& p, double radius) const {
+    if (points_ == nullptr || sorted_.empty()) return 0;
+    std::size_t total = 0;
+    if (!periodic_) {
+        const CellBox b = boxAround(p, radius);
+        if (b.x0 > b.x1) return 0;
+        for (int y = b.y0; y <= b.y1; ++y)
+            total += static_cast<std::size_t>(cellStart_[y * nx_ + b.x1 + 1] - cellStart_[y * nx_ + b.x0]);
+        return total;
+    }
+    int cx, cy, sx, sy;
+    periodicSpan(p, radius, cx, cy, sx, sy);
+    for (int oy = 0; oy < sy; ++oy)
+        for (int ox = 0; ox < sx; ++ox) {
+            const int c = ((cy + oy) % ny_ + ny_) % ny_ * nx_ + ((cx + ox) % nx_ + nx_) % nx_;
+            total += static_cast<std::size_t>(cellStart_[c + 1] - cellStart_[c]);
+        }
+    return total;
+}
+
+std::vector<int> PointGrid::within(const Vec2& p, double radius) const {
+    std::vector<int> out;
+    forEachWithin(p, radius, [&](int j, const Vec2&, double) { out.push_back(j); });
+    std::sort(out.begin(), out.end());
+    return out;
+}
+
+void SegmentGrid::build(const std::vector<Segment>& segments, double cellSize) {
+    segments_ = &segments;
+    cellStart_.clear();
+    items_.clear();
+    nx_ = ny_ = 0;
+    if (segments.empty()) return;
+    cell_ = cellSize > 0 ? cellSize : 1.0;
+    Vec2 lo = segments[0].a, hi = segments[0].a;
+    for (const Segment& s : segments) {
+        lo = lo.cwiseMin(s.a).cwiseMin(s.b);
+        hi = hi.cwiseMax(s.a).cwiseMax(s.b);
+    }
+    cellsCovering(lo, hi, cell_, nx_, ny_);
+    origin_ = lo;
+    // Register each segment in every cell its bounding box touches (conservative), stored as one
+    // array with per-cell offsets (two passes: count, then fill in segment order).
+    const std::size_t ncells = static_cast<std::size_t>(nx_) * ny_;
+    cellStart_.assign(ncells + 1, 0);
+    auto forCells = [&](const Segment& s, auto&& f) {
+        const Vec2 a = s.a.cwiseMin(s.b), b = s.a.cwiseMax(s.b);
+        const int x0 = static_cast<int>(std::floor((a.x() - origin_.x()) / cell_));
+        const int x1 = static_cast<int>(std::floor((b.x() - origin_.x()) / cell_));
+        const int y0 = static_cast<int>(std::floor((a.y() - origin_.y()) / cell_));
+        const int y1 = static_cast<int>(std::floor((b.y() - origin_.y()) / cell_));
+        for (int y = std::max(0, y0); y <= std::min(ny_ - 1, y1); ++y)
+            for (int x = std::max(0, x0); x <= std::min(nx_ - 1, x1); ++x) f(static_cast<std::size_t>(y) * nx_ + x);
+    };
+    for (const Segment& s : segments) forCells(s, [&](std::size_t c) { ++cellStart_[c + 1]; });
+    for (std::size_t c = 0; c < ncells; ++c) cellStart_[c + 1] += cellStart_[c];
+    items_.resize(static_cast<std::size_t>(cellStart_[ncells]));
+    std::vector<int> fill(cellStart_.begin(), cellStart_.end() - 1);
+    for (std::size_t k = 0; k < segments.size(); ++k)
+        forCells(segments[k], [&](std::size_t c) { items_[static_cast<std::size_t>(fill[c]++)] = static_cast<int>(k); });
+}
+
+void SegmentGrid::near(const Vec2& p, double radius, std::vector<int>& out) const {
+    out.clear();
+    if (empty()) return;
+    // Cell range of the query's bounding box, padded by 1 µm (a superset is harmless: every
+    // candidate is tested by distance, and the result is sorted).
+    const double reach = radius + 1e-6, inv = 1.0 / cell_;
+    auto cell = [](double v, int n) { return !(v >= 0) ? -1 : (v >= n ? n : static_cast<int>(v)); };
+    const int x0 = std::max(0, cell((p.x() - reach - origin_.x()) * inv, nx_));
+    const int x1 = std::min(nx_ - 1, cell((p.x() + reach - origin_.x()) * inv, nx_));
+    const int y0 = std::max(0, cell((p.y() - reach - origin_.y()) * inv, ny_));
+    const int y1 = std::min(ny_ - 1, cell((p.y() + reach - origin_.y()) * inv, ny_));
+    const double r2 = radius * radius;
+    for (int y = y0; y <= y1; ++y)
+        for (int x = x0; x <= x1; ++x) {
+            const std::size_t c = static_cast<std::size_t>(y) * nx_ + x;
+            for (int k = cellStart_[c]; k < cellStart_[c + 1]; ++k) {
+                const int s = items_[static_cast<std::size_t>(k)];
+                const Segment& seg = (*segments_)[static_cast<std::size_t>(s)];
+                if (distanceToSegmentSquared(p, seg.a, seg.b) <= r2) out.push_back(s);
+            }
+        }
+    if (out.size() > 1) {
+        std::sort(out.begin(), out.end());
+        out.erase(std::unique(out.begin(), out.end()), out.end());
+    }
+}
+
+}  // namespace ch

@@ -1,0 +1,73 @@
+// CrowdHealth — the component registry.
+#include "crowdhealth/core/registry.h"
+
+#include <algorithm>
+
+namespace ch {
+
+Registry& Registry::instance() {
+    // Function-local static: safe to use from other translation units' static initialisers.
+    static Registry registry;
+    return registry;
+}
+
+bool Registry::add(ComponentInfo info) {
+    if (info.name.empty()) throw RegistryError("cannot register a component without a name");
+    if (!info.create) throw RegistryError("component '" + info.name + "' has no factory");
+    if (find(info.name) != nullptr)
+        throw RegistryError("component '" + info.name + "' is registered twice");
+    for (const ParamSpec& p : info.params)
+        for (const ParamSpec& c : commonParams())
+            if (p.name == c.name)
+                throw RegistryError("component '" + info.name + "' redeclares the common parameter '" + p.name + "'");
+    entries_.push_back(std::move(info));
+    return true;
+}
+
+const ComponentInfo* Registry::find(const std::string& name) const {
+    for (const ComponentInfo& e : entries_)
+        if (e.name == name) return &e;
+    return nullptr;
+}
+
+std::vector<std::string> Registry::names() const {
+    std::vector<std::string> out;
+    for (const ComponentInfo& e : entries_) out.push_back(e.name);
+    std::sort(out.begin(), out.end());
+    return out;
+}
+
+std::vector<const ComponentInfo*> Registry::all() const {
+    std::vector<const ComponentInfo*> out;
+    for (const ComponentInfo& e : entries_) out.push_back(&e);
+    std::sort(out.begin(), out.end(), [](auto* a, auto* b) { return a->name < b->name; });
+    return out;
+}
+
+const ParamTable& Registry::commonParams() {
+    static const ParamTable table = {
+        ParamSpec::real("coeff", "-", 1.0, -1e6, 1e6, "weight of this component in its step's sum (UMANS coeff)"),
+        ParamSpec::real("range", "m", 5.0, 0.0, 1e4,
+                        "interaction range: neighbours and walls farther away are ignored"),
+    };
+    return table;
+}
+
+ParamTable Registry::fullTable(const ComponentInfo& info) {
+    ParamTable t = commonParams();
+    for (ParamSpec& p : t)
+        if (p.name == "range") p.defaultValue = info.defaultRange;
+    t.insert(t.end(), info.params.begin(), info.params.end());
+    return t;
+}
+
+std::unique_ptr<Component> createComponent(const std::string& name, const ParamSet& params) {
+    const ComponentInfo* info = Registry::instance().find(name);
+    if (info == nullptr) throw RegistryError("unknown component '" + name + "'");
+    // Fill any missing values with defaults so components can rely on every name being present.
+    ParamSet full(Registry::fullTable(*info));
+    for (const auto& [k, v] : params.values()) full.set(k, v);
+    return info->create(full);
+}
+
+}  // namespace ch

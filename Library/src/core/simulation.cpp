@@ -1,0 +1,504 @@
+// CrowdHealth — the simulation loop (see simulation.h for the order of phases).
+#include "crowdhealth/core/simulation.h"
+
+#include "crowdhealth/core/kernels.h"
+#include "crowdhealth/core/parallel.h"
+#include "crowdhealth/core/rng.h"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <stdexcept>
+
+namespace ch {
+
+namespace {
+int finePerCoarseOf(const ScenarioSpec& s) {
+    const double ratio = s.deltaTime / s.fineStep();
+    return std::max(1, static_cast<int>(std::lround(ratio)));
+}
+}  // namespace
+
+Simulation::Simulation(ScenarioSpec specIn)
+    : spec_(std::move(specIn)),
+      world_(spec_.world, spec_.obstacles),
+      dtCoarse_(spec_.deltaTime),
+      dtFine_(spec_.fineStep()),
+      finePerCoarse_(finePerCoarseOf(spec_)),
+      endTime_(spec_.endTime) {
+    const ScenarioSpec& spec = spec_;
+    if (!(dtCoarse_ > 0) || !(dtFine_ > 0)) throw std::runtime_error("delta_time must be positive");
+
+    std::map<int, int> policyIndex;
+    for (const PolicySpec& p : spec.policies) {
+        if (policyIndex.count(p.id)) throw std::runtime_error("duplicate policy id " + std::to_string(p.id));
+        policyIndex[p.id] = static_cast<int>(policies_.size());
+        policies_.emplace_back(p);  // throws RegistryError for unknown components
+    }
+    double maxRadius = 0;
+    for (const AgentSpec& a : spec.agents) {
+        if (!policyIndex.count(a.policyId))
+            throw std::runtime_error("agent " + std::to_string(a.id) + " names policy " +
+                                     std::to_string(a.policyId) + ", which does not exist");
+        maxRadius = std::max(maxRadius, a.radius);
+    }
+    agentPolicy_.reserve(spec.agents.size());
+    for (const AgentSpec& a : spec.agents) agentPolicy_.push_back(policyIndex[a.policyId]);
+
+    // Neighbourhood radius per policy: its largest component range, and at least the contact reach.
+    maxRadius_ = maxRadius;
+    for (const Policy& p : policies_) {
+        double r = 2 * maxRadius;
+        for (const PolicyStep& s : p.steps()) r = std::max(r, s.interactionRange());
+        policyRange_.push_back(r);
+        maxRange_ = std::max(maxRange_, r);
+    }
+
+    pending_.resize(spec.agents.size());
+    for (std::size_t k = 0; k < pending_.size(); ++k) pending_[k] = k;
+    std::stable_sort(pending_.begin(), pending_.end(), [&](std::size_t a, std::size_t b) {
+        return spec.agents[a].startTime < spec.agents[b].startTime;
+    });
+    agents_.reserve(spec.agents.size());
+    health_.init(spec_);
+    resolveRamps();
+    activatePending();
+    applySchedule();
+}
+
+void Simulation::setThreads(int n) { omp_set_num_threads(std::max(1, n)); }
+
+bool Simulation::finished() const {
+    // Nothing left to simulate once every agent has left (evacuation runs end there even when
+    // the scenario names a later end_time).
+    if (agents_.empty() && pending() == 0) return true;
+    return endTime_ >= 0 && time() >= endTime_ - 0.5 * dtFine_;
+}
+
+void Simulation::activatePending() {
+    // Half a fine step of tolerance so a start_time written as a multiple of delta_time is met
+    // exactly despite rounding.
+    const double now = time() + 0.5 * dtFine_;
+    const std::size_t before = agents_.size();
+    while (nextPending_ < pending_.size() && spec_.agents[pending_[nextPending_]].startTime <= now) {
+        const std::size_t k = pending_[nextPending_++];
+        const std::size_t i = agents_.add(spec_.agents[k], agentPolicy_[k], health_.recordFor(k));
+        health_.activated(agents_, i);
+    }
+    if (agents_.size() != before) {
+        std::vector<int> previous(agents_.size(), -1);
+        for (std::size_t i = 0; i < before; ++i) previous[i] = static_cast<int>(i);
+        followAgents(previous);
+    }
+}
+
+void Simulation::followAgents(const std::vector<int>& previous) {
+    // The held coarse accelerations, then every component's per-agent state.
+    std::vector<Vec2> held(previous.size(), Vec2(0, 0));
+    for (std::size_t i = 0; i < previous.size(); ++i) {
+        const int p = previous[i];
+        if (p >= 0 && static_cast<std::size_t>(p) < heldAccel_.size()) held[i] = heldAccel_[static_cast<std::size_t>(p)];
+    }
+    heldAccel_.swap(held);
+    for (Policy& p : policies_)
+        for (PolicyStep& s : p.steps())
+            for (auto& e : s.components()) e.component->remapAgents(previous);
+}
+
+void Simulation::stepCoarse() {
+    for (int k = 0; k < finePerCoarse_; ++k) stepFine();
+}
+
+void Simulation::gatherQuery(std::size_t i, AgentQuery& q) const {
+    setQueryAgent(q, agents_, i);
+    q.agents = lists_.agents(i);
+    q.segments = lists_.segments(i);
+}
+
+Vec2 Simulation::umansContactAcceleration(const AgentQuery& q, double scale) const {
+    // UMANS' contact model: a spring along the centre line for every overlap, applied after the
+    // acceleration clamp. `scale` is a stiffness per unit mass (1/s²).
+    Vec2 acc(0, 0);
+    for (const NeighbourAgent& n : q.agents) {
+        const double reach = q.radius + agents_.radius[n.index];
+        if (n.distanceSquared() >= reach * reach) continue;
+        const double d = n.distance();
+        const double overlap = reach - d;
+        if (overlap > 0 && d > 1e-12) acc -= n.offset / d * (scale * overlap);
+    }
+    for (int s : q.segments) {
+        const Segment& seg = world_.segments()[s];
+        const Vec2 diff = q.position - closestPointOnSegment(q.position, seg.a, seg.b);
+        const double d = diff.norm();
+        const double overlap = q.radius - d;
+        if (overlap > 0 && d > 1e-12) acc += diff / d * (scale * overlap);
+    }
+    return acc / q.mass;
+}
+
+const char* Simulation::phaseName(Phase p) {
+    static constexpr const char* names[] = {"activation", "neighbours", "preferred", "prepare",
+                                            "forces", "integration", "removal"};
+    return p < Phase::Count ? names[static_cast<std::size_t>(p)] : "?";
+}
+
+template <class F>
+void Simulation::timed(Phase p, F&& f) {
+    const auto t0 = std::chrono::steady_clock::now();
+    f();
+    phaseSeconds_[static_cast<std::size_t>(p)] +=
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+void Simulation::stepFine() {
+    timed(Phase::Activation, [&] { activatePending(); });
+    const std::size_t n = agents_.size();
+    const bool coarseBoundary = fineSteps_ % static_cast<std::uint64_t>(finePerCoarse_) == 0;
+
+    timed(Phase::Neighbours, [&] {
+        // One search per step: the grid, then every agent's neighbour list within its policy's
+        // range, which SPH density, contact and the per-agent calls all read.
+        grid_.build(agents_.pos, maxRange_, world_.periodic(), spec_.world.width, spec_.world.height);
+        if (reorderInterval_ > 0 && fineSteps_ % static_cast<std::uint64_t>(reorderInterval_) == 0) reorderAgents();
+        lists_.build(agents_.pos, grid_, world_, agents_.policy, policyRange_);
+    });
+    timed(Phase::Preferred, [&] {
+        // CrowdHealth: panic update and the speeds in effect, then the preferred velocities, then
+        // herding/erratic turns of the preferred direction (each agent writes only its own slot).
+        health_.beginStep(agents_, grid_, time(), dtFine_);
+        setPreferredVelocities();
+        health_.steerPreferred(agents_, grid_, time(), spec_.seed);
+    });
+    timed(Phase::Prepare, [&] {
+        for (Policy& p : policies_)
+            for (PolicyStep& s : p.steps())
+                if (s.timing() == StepTiming::Fine || coarseBoundary) s.prepare(contextFor(s));
+    });
+
+    fineAccel_.resize(n);
+    umansContact_.resize(n);
+    stopped_.resize(n);
+    nextPos_.resize(n);
+    nextVel_.resize(n);
+    nextView_.resize(n);
+    nextContact_.resize(n);
+    timed(Phase::Forces, [&] { evaluateAgents(coarseBoundary); });
+    timed(Phase::Integration, [&] { integrate(); });
+
+    std::swap(agents_.pos, nextPos_);
+    std::swap(agents_.vel, nextVel_);
+    std::swap(agents_.viewDir, nextView_);
+    std::swap(agents_.contactAccel, nextContact_);
+    ++fineSteps_;
+    health_.endStep(agents_, time(), dtFine_);
+    timed(Phase::Removal, [&] { removeFinished(); });
+    applySchedule();
+}
+
+void Simulation::resolveRamps() {
+    for (const RampSpec& r : spec_.ramps) {
+        Ramp ramp;
+        ramp.spec = r;
+        if (r.target == RampSpec::Target::Component) {
+            for (std::size_t p = 0; p < policies_.size(); ++p) {
+                if (r.policyId && policies_[p].id() != *r.policyId) continue;
+                if (r.component == "CrowdHealth") {
+                    ramp.policies.push_back(static_cast<int>(p));
+                    continue;
+                }
+                for (PolicyStep& s : policies_[p].steps())
+                    for (auto& e : s.components())
+                        if (e.name == r.component) ramp.components.push_back(e.component.get());
+            }
+            if (ramp.components.empty() && ramp.policies.empty())
+                throw std::runtime_error(r.loc.file + ":" + std::to_string(r.loc.line) + ": the ramp of " + r.column() +
+                                         " targets no component of any policy");
+        }
+        const std::string name = r.column();
+        const auto it = std::find(scheduleColumns_.begin(), scheduleColumns_.end(), name);
+        ramp.column = static_cast<int>(it - scheduleColumns_.begin());
+        if (it == scheduleColumns_.end()) {
+            ramp.first = true;
+            scheduleColumns_.push_back(name);
+            columnRamp_.push_back(static_cast<int>(ramps_.size()));
+        }
+        ramps_.push_back(std::move(ramp));
+    }
+    lastAgentValue_.assign(scheduleColumns_.size(), std::numeric_limits<double>::quiet_NaN());
+}
+
+void Simulation::applySchedule() {
+    const double t = time();
+    // Half a fine step of tolerance so a start written as a multiple of delta_time is met exactly.
+    const double tol = 0.5 * dtFine_;
+    for (Ramp& ramp : ramps_) {
+        const RampSpec& r = ramp.spec;
+        if (t < r.start - tol && !ramp.first) continue;  // a later ramp of the same target waits for its start
+        const double v = t >= r.end - tol ? r.to : (t <= r.start + tol ? r.from : r.valueAt(t));
+        // Held values are written once: outside its window a ramp costs nothing per step (agents
+        // activated later read the value from their spec, updated below).
+        if (v == ramp.applied) continue;
+        ramp.applied = v;
+        if (r.target == RampSpec::Target::Agents) {
+            auto apply = [&](std::vector<double>& active, double AgentSpec::*member, std::vector<double>* base) {
+                for (double& x : active) x = v;
+                if (base != nullptr)
+                    for (double& x : *base) x = v;
+                for (std::size_t k = nextPending_; k < pending_.size(); ++k) spec_.agents[pending_[k]].*member = v;
+            };
+            if (r.parameter == "pref_speed") apply(agents_.basePrefSpeed, &AgentSpec::prefSpeed, &agents_.prefSpeed);
+            else if (r.parameter == "max_speed") apply(agents_.baseMaxSpeed, &AgentSpec::maxSpeed, &agents_.maxSpeed);
+            else if (r.parameter == "max_acceleration") apply(agents_.maxAcceleration, &AgentSpec::maxAcceleration, nullptr);
+            lastAgentValue_[static_cast<std::size_t>(ramp.column)] = v;
+        } else {
+            for (Component* c : ramp.components) c->setParameter(r.parameter, v);
+            for (int p : ramp.policies) health_.params(static_cast<std::size_t>(p)).set(r.parameter, v);
+        }
+    }
+}
+
+std::vector<double> Simulation::scheduleValues() const {
+    std::vector<double> out;
+    for (std::size_t c = 0; c < scheduleColumns_.size(); ++c) {
+        const Ramp& ramp = ramps_[static_cast<std::size_t>(columnRamp_[c])];
+        const RampSpec& r = ramp.spec;
+        double v = std::numeric_limits<double>::quiet_NaN();
+        if (r.target == RampSpec::Target::Agents) {
+            const std::vector<double>* column = r.parameter == "pref_speed"   ? &agents_.basePrefSpeed
+                                                : r.parameter == "max_speed" ? &agents_.baseMaxSpeed
+                                                                             : &agents_.maxAcceleration;
+            if (!column->empty()) {
+                double sum = 0;
+                for (double x : *column) sum += x;
+                v = sum / static_cast<double>(column->size());
+                lastAgentValue_[c] = v;
+            } else {
+                v = lastAgentValue_[c];
+            }
+        } else if (!ramp.components.empty()) {
+            v = ramp.components.front()->parameter(r.parameter);
+        } else if (!ramp.policies.empty()) {
+            v = health_.params(static_cast<std::size_t>(ramp.policies.front())).get(r.parameter);
+        }
+        out.push_back(v);
+    }
+    return out;
+}
+
+StepContext Simulation::contextFor(const PolicyStep& s) const {
+    const double dt = s.timing() == StepTiming::Coarse ? dtCoarse_ : dtFine_;
+    return StepContext{agents_, world_, grid_, dt, time(), fineSteps_, spec_.seed, s.spec().relaxationTime, &lists_, maxRadius_};
+}
+
+void Simulation::setPreferredVelocities() {
+    // Part of the frozen state of this step: towards the goal at preferred speed, 0 at the goal.
+    const std::ptrdiff_t n = static_cast<std::ptrdiff_t>(agents_.size());
+#pragma omp parallel for schedule(static) if (parallelCheapLoop(static_cast<std::size_t>(n)))
+    for (std::ptrdiff_t ii = 0; ii < n; ++ii) {
+        const std::size_t i = static_cast<std::size_t>(ii);
+        agents_.prefVel[i] = agents_.atGoal(i) ? Vec2(0, 0)
+                                               : Vec2(normalisedOrZero(agents_.goal[i] - agents_.pos[i]) *
+                                                      agents_.prefSpeed[i]);
+    }
+}
+
+Vec2 Simulation::symmetryJitter(std::size_t i) const {
+    // Exactly symmetric scenarios (agents on a circle, mirror-image crossings) stay symmetric in
+    // double precision, and some models then deadlock for ever; UMANS' single precision breaks the
+    // tie with rounding noise (a float position a few metres from the origin is rounded by up to
+    // ~5e-7 m every step). Here an agent that is held up — it wants to walk (has a preferred
+    // velocity) but moves slower than half its preferred speed — has its new position moved by a
+    // point uniform in a disc of radius ε, drawn from (seed, agent id, fine step): no shared state,
+    // so the same bits with any thread count or agent order. Agents walking freely are left
+    // exactly as they are, so a symmetric encounter that resolves by itself (a head-on pair that
+    // both step aside) stays symmetric, as in UMANS, whose rounding is exact under negation.
+    const double eps = spec_.symmetryBreaking;
+    if (!(eps > 0) || agents_.prefVel[i].squaredNorm() == 0) return Vec2(0, 0);
+    const double slow = kHeldUpFraction * agents_.prefSpeed[i];
+    if (agents_.vel[i].squaredNorm() >= slow * slow) return Vec2(0, 0);
+    Rng rng(spec_.seed, static_cast<std::uint64_t>(agents_.id[i]), fineSteps_, kStreamSymmetry);
+    const double angle = rng.uniform(0, 2 * kPi);
+    const double r = eps * std::sqrt(rng.uniform());
+    return Vec2(r * std::cos(angle), r * std::sin(angle));
+}
+
+void Simulation::evaluateAgents(bool coarseBoundary) {
+    const std::size_t n = agents_.size();
+#pragma omp parallel if (parallelNeighbourLoop(n))
+    {
+        AgentQuery q;  // per thread, on its own stack (no shared cache lines); its spans allocate nothing
+#pragma omp for schedule(static)
+        for (std::ptrdiff_t ii = 0; ii < static_cast<std::ptrdiff_t>(n); ++ii) {
+            const std::size_t i = static_cast<std::size_t>(ii);
+            const Policy& policy = policies_[agents_.policy[i]];
+            gatherQuery(i, q);
+
+            Vec2 fine(0, 0);
+            Vec2 reported(0, 0);  // contact accelerations reported by components (contactField)
+            bool stop = false;
+            const bool atGoal = agents_.prefVel[i].squaredNorm() == 0;
+            if (coarseBoundary) heldAccel_[i] = Vec2(0, 0);
+            for (const PolicyStep& s : policy.steps()) {
+                if (atGoal && s.spec().stopAtGoal) {
+                    stop = true;
+                    continue;
+                }
+                // A blended step (StepSpec::blend) counts with its per-agent weight; weight 0
+                // skips it. A coarse step's weight is taken with its acceleration and held.
+                const double w = s.weight(i);
+                if (!(w > 0)) continue;
+                if (s.timing() == StepTiming::Coarse) {
+                    if (coarseBoundary) heldAccel_[i] += w * s.acceleration(q, contextFor(s));
+                } else {
+                    fine += w * s.acceleration(q, contextFor(s));
+                }
+                for (const auto& e : s.components())
+                    if (const std::vector<Vec2>* f = e.component->contactField(); f != nullptr && i < f->size())
+                        reported += w * e.coeff * (*f)[i];
+            }
+            Vec2 contact(0, 0);
+            if (policy.contactForceScale() > 0) contact = umansContactAcceleration(q, policy.contactForceScale());
+            fineAccel_[i] = fine;
+            stopped_[i] = stop ? 1 : 0;
+            umansContact_[i] = contact;
+            nextContact_[i] = contact + reported;
+        }
+    }
+}
+
+void Simulation::integrate() {
+    const std::ptrdiff_t n = static_cast<std::ptrdiff_t>(agents_.size());
+#pragma omp parallel for schedule(static) if (parallelCheapLoop(static_cast<std::size_t>(n)))
+    for (std::ptrdiff_t ii = 0; ii < n; ++ii) {
+        const std::size_t i = static_cast<std::size_t>(ii);
+        Vec2 v(0, 0);
+        if (!stopped_[i]) {
+            const Vec2 a = clampLength(heldAccel_[i] + fineAccel_[i], agents_.maxAcceleration[i]);
+            v = clampLength(agents_.vel[i] + a * dtFine_, agents_.maxSpeed[i]);
+        }
+        v += umansContact_[i] * dtFine_;
+        nextVel_[i] = v;
+        nextPos_[i] = world_.wrap(agents_.pos[i] + v * dtFine_ + symmetryJitter(i));
+        // UMANS' viewing direction: mostly the velocity, partly the preferred velocity.
+        const Vec2 look = (2.0 * v + agents_.prefVel[i]) / 3.0;
+        nextView_[i] = look.squaredNorm() > 0.01 ? Vec2(look.normalized()) : agents_.viewDir[i];
+    }
+}
+
+void Simulation::reorderAgents() {
+    // Cell order keeps neighbours close in memory: the per-pair reads of a step (positions,
+    // masses, densities of neighbours) then hit cache lines already loaded. Agents that join
+    // later are appended; the next re-ordering places them.
+    const std::vector<int>& order = grid_.order();
+    const std::size_t n = agents_.size();
+    if (order.size() != n) return;
+    bool sorted = true;
+    for (std::size_t k = 0; k < n && sorted; ++k) sorted = order[k] == static_cast<int>(k);
+    if (sorted) return;
+    const std::vector<int> previous(order.begin(), order.end());
+    agents_.permute(previous);
+    followAgents(previous);
+    health_.follow(agents_);
+    grid_.build(agents_.pos, maxRange_, world_.periodic(), spec_.world.width, spec_.world.height);
+}
+
+void Simulation::removeFinished() {
+    const std::size_t n = agents_.size();
+    std::vector<unsigned char>& remove = remove_;
+    remove.assign(n, 0);
+    bool any = false;
+    const double t = time();
+    const std::size_t firstNew = evacuations_.size();
+    for (std::size_t i = 0; i < n; ++i) {
+        if (agents_.removeAtGoal[i] && agents_.hasGoal[i] && agents_.atGoal(i)) {
+            remove[i] = 1;
+            evacuations_.push_back(Evacuation{agents_.id[i], t});
+            health_.markExit(agents_, i, t);
+            any = true;
+        } else if (!world_.inside(agents_.pos[i])) {
+            remove[i] = 1;
+            ++leftWorld_;
+            any = true;
+        }
+    }
+    // Agents leaving at the same step are listed by id, whatever their order in the store.
+    std::sort(evacuations_.begin() + static_cast<std::ptrdiff_t>(firstNew), evacuations_.end(),
+              [](const Evacuation& a, const Evacuation& b) { return a.id < b.id; });
+    if (any) {
+        agents_.removeMarked(remove);
+        std::vector<int> previous;
+        previous.reserve(n);
+        for (std::size_t r = 0; r < n; ++r)
+            if (!remove[r]) previous.push_back(static_cast<int>(r));
+        followAgents(previous);
+    }
+}
+
+std::vector<double> measureDensity(const std::vector<Vec2>& positions, const std::vector<double>& masses,
+                                   const World& world, double h) {
+    const std::size_t n = positions.size();
+    std::vector<double> density(n, 0.0);
+    PointGrid grid;
+    grid.build(positions, h, world.periodic(), world.spec().width, world.spec().height);
+    const PointGrid& walls = world.particleGrid();
+    const bool hasWalls = !world.boundaryParticles().empty();
+#pragma omp parallel for schedule(static) if (parallelNeighbourLoop(n))
+    for (std::ptrdiff_t ii = 0; ii < static_cast<std::ptrdiff_t>(n); ++ii) {
+        const std::size_t i = static_cast<std::size_t>(ii);
+        double rho = 0;  // includes the agent itself (j = i, r = 0)
+        grid.forEachWithin(positions[i], h, [&](int j, const Vec2&, double d2) {
+            rho += masses[static_cast<std::size_t>(j)] * kernels::poly6(d2, h);
+        });
+        if (hasWalls)
+            walls.forEachWithin(positions[i], h, [&](int, const Vec2&, double d2) { rho += kernels::poly6(d2, h); });
+        density[i] = rho;
+    }
+    return density;
+}
+
+void Simulation::measureDensity(double h) {
+    agents_.density = ch::measureDensity(agents_.pos, agents_.mass, world_, h);
+}
+
+void Simulation::setPrefSpeed(double speed) {
+    for (double& v : agents_.prefSpeed) v = speed;
+    for (double& v : agents_.basePrefSpeed) v = speed;  // the CrowdHealth layer derives prefSpeed from it
+    for (AgentSpec& a : spec_.agents) a.prefSpeed = speed;
+}
+
+double Simulation::maxWallPenetration() const {
+    // Depth by which an agent's disc reaches into a wall: r − d for a centre outside at distance d
+    // from the nearest wall, r + d for a centre inside an obstacle (d = distance to that
+    // obstacle's nearest edge, i.e. the shortest way out).
+    double worst = 0;
+    std::vector<int> near;
+    const auto& obstacles = world_.obstacles();
+    const auto& segments = world_.segments();
+    for (std::size_t i = 0; i < agents_.size(); ++i) {
+        const Vec2& p = agents_.pos[i];
+        const double r = agents_.radius[i];
+        world_.segmentsNear(p, r, near);
+        bool inside = false;
+        for (std::size_t o = 0; o < obstacles.size() && !inside; ++o) {
+            if (obstacles[o].points.size() < 3 || !pointInPolygon(p, obstacles[o].points)) continue;
+            inside = true;
+            double dmin = kInf;
+            for (const Segment& seg : segments)
+                if (seg.obstacle == static_cast<int>(o))
+                    dmin = std::min(dmin, std::sqrt(distanceToSegmentSquared(p, seg.a, seg.b)));
+            worst = std::max(worst, r + dmin);
+        }
+        if (inside) continue;
+        for (int s : near) {
+            const Segment& seg = segments[s];
+            worst = std::max(worst, r - std::sqrt(distanceToSegmentSquared(p, seg.a, seg.b)));
+        }
+    }
+    return worst;
+}
+
+}  // namespace ch

@@ -1,0 +1,380 @@
+// CrowdHealth — the CrowdHealth layer (see health.h and docs/crowd-health.md).
+#include "crowdhealth/health/health.h"
+
+#include "crowdhealth/io/output.h"
+#include "crowdhealth/core/parallel.h"
+#include "crowdhealth/core/rng.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <unordered_map>
+
+namespace ch {
+
+namespace {
+/// Below this speed (m/s) an agent's heading is not defined (standing, jitter).
+constexpr double kHeadingSpeed = 0.1;
+
+ParamSpec positive(ParamSpec p) {
+    p.minExclusive = true;
+    return p;
+}
+}  // namespace
+
+const ParamTable& crowdHealthTable() {
+    static const ParamTable t = [] {
+        const HealthParams d;
+        return ParamTable{
+            positive(ParamSpec::real("bodyMass", "kg", d.bodyMass, 0, 500,
+                                     "body mass of an agent of mass factor 1; force = bodyMass * mass * |a_contact|")),
+            ParamSpec::real("crushThreshold", "N", d.crushThreshold, 0, 1e6,
+                            "contact force above which time and dose accumulate (Fruin 1993: 4500 N on bent railings)"),
+            positive(ParamSpec::real("injuryDose", "N s", d.injuryDose, 0, 1e12,
+                                     "dose (integral of the force while above the threshold) at which an agent is injured")),
+            ParamSpec::boolean("injuryEffect", d.injuryEffect, "injured agents slow down (the factors below)"),
+            ParamSpec::real("injuredSpeedFactor", "-", d.injuredSpeedFactor, 0, 1,
+                            "preferred speed of an injured agent, as a fraction of its own"),
+            ParamSpec::real("injuredMaxSpeedFactor", "-", d.injuredMaxSpeedFactor, 0, 1,
+                            "maximum speed of an injured agent, as a fraction of its own"),
+            ParamSpec::real("panic", "-", d.panic, 0, 1,
+                            "scheduled panic: every agent of the policy has at least this level (ramp it)"),
+            ParamSpec::real("panicDecay", "1/s", d.panicDecay, 0, 1e3, "panic decays as dP/dt = -panicDecay * P"),
+            ParamSpec::real("contagionRate", "1/s", d.contagionRate, 0, 1e3,
+                            "dP/dt = contagionRate * (P_max - P) from the most panicked neighbour"),
+            ParamSpec::real("contagionRadius", "m", d.contagionRadius, 0, 10,
+                            "distance between centres within which panic spreads"),
+            ParamSpec::real("contagionThreshold", "-", d.contagionThreshold, 0, 1,
+                            "a neighbour spreads panic only from this level on"),
+            ParamSpec::boolean("panicSpeedEffect", d.panicSpeedEffect,
+                               "panic raises the preferred speed towards panicSpeed (the paper's panic encoding)"),
+            ParamSpec::real("panicSpeed", "m/s", d.panicSpeed, 0, 20,
+                            "preferred speed at panic 1: v_pref = v + P * max(0, panicSpeed - v)"),
+            ParamSpec::boolean("erratic", d.erratic, "panic adds noise to the preferred direction"),
+            ParamSpec::real("erraticAngle", "deg", d.erraticAngle, 0, 180,
+                            "standard deviation of the direction noise at panic 1 (scales with P)"),
+            positive(ParamSpec::real("erraticInterval", "s", d.erraticInterval, 0, 60,
+                                     "a noise angle is held for this long")),
+            ParamSpec::boolean("herding", d.herding, "panic turns the preferred direction towards the neighbours' headings"),
+            ParamSpec::real("herdingWeight", "-", d.herdingWeight, 0, 1,
+                            "Helbing et al. 2000's herding p at panic 1: e = norm((1 - p P) e_goal + p P <e_j>)"),
+            positive(ParamSpec::real("herdingRadius", "m", d.herdingRadius, 0, 10,
+                                     "neighbours within this distance count for herding")),
+        };
+    }();
+    return t;
+}
+
+HealthParams HealthParams::from(const ParamSet& v, bool effects) {
+    HealthParams p;
+    for (const ParamSpec& s : crowdHealthTable())
+        if (s.type == ParamType::Real && v.has(s.name)) p.set(s.name, v.get(s.name));
+    // Bool switches are not rampable (set() refuses them): read them here.
+    auto flag = [&](const char* name, bool def) { return v.has(name) ? v.flag(name) : def; };
+    p.injuryEffect = effects && flag("injuryEffect", p.injuryEffect);
+    p.panicSpeedEffect = effects && flag("panicSpeedEffect", p.panicSpeedEffect);
+    p.erratic = effects && flag("erratic", p.erratic);
+    p.herding = effects && flag("herding", p.herding);
+    return p;
+}
+
+namespace {
+template <class F>
+bool visitReal(HealthParams& p, const std::string& name, F&& f) {
+    struct Entry { const char* name; double HealthParams::*member; };
+    static const Entry entries[] = {
+        {"bodyMass", &HealthParams::bodyMass},
+        {"crushThreshold", &HealthParams::crushThreshold},
+        {"injuryDose", &HealthParams::injuryDose},
+        {"injuredSpeedFactor", &HealthParams::injuredSpeedFactor},
+        {"injuredMaxSpeedFactor", &HealthParams::injuredMaxSpeedFactor},
+        {"panic", &HealthParams::panic},
+        {"panicDecay", &HealthParams::panicDecay},
+        {"contagionRate", &HealthParams::contagionRate},
+        {"contagionRadius", &HealthParams::contagionRadius},
+        {"contagionThreshold", &HealthParams::contagionThreshold},
+        {"panicSpeed", &HealthParams::panicSpeed},
+        {"erraticAngle", &HealthParams::erraticAngle},
+        {"erraticInterval", &HealthParams::erraticInterval},
+        {"herdingWeight", &HealthParams::herdingWeight},
+        {"herdingRadius", &HealthParams::herdingRadius},
+    };
+    for (const Entry& e : entries)
+        if (name == e.name) {
+            f(p.*(e.member));
+            return true;
+        }
+    return false;
+}
+}  // namespace
+
+bool HealthParams::set(const std::string& name, double value) {
+    return visitReal(*this, name, [&](double& m) { m = value; });
+}
+
+double HealthParams::get(const std::string& name) const {
+    double out = std::numeric_limits<double>::quiet_NaN();
+    visitReal(const_cast<HealthParams&>(*this), name, [&](double& m) { out = m; });
+    if (name == "injuryEffect") return injuryEffect;
+    if (name == "panicSpeedEffect") return panicSpeedEffect;
+    if (name == "erratic") return erratic;
+    if (name == "herding") return herding;
+    return out;
+}
+
+void HealthLayer::init(const ScenarioSpec& spec) {
+    records_.assign(spec.agents.size(), HealthRecord{});
+    recordOfSpec_.resize(spec.agents.size());
+    for (std::size_t k = 0; k < recordOfSpec_.size(); ++k) recordOfSpec_[k] = static_cast<int>(k);
+    std::unordered_map<int, std::size_t> policyIndex;
+    for (std::size_t p = 0; p < spec.policies.size(); ++p) policyIndex.emplace(spec.policies[p].id, p);
+    for (std::size_t k = 0; k < spec.agents.size(); ++k) {
+        records_[k].id = spec.agents[k].id;
+        if (const auto it = policyIndex.find(spec.agents[k].policyId); it != policyIndex.end())
+            records_[k].policy = it->second;
+    }
+    params_.clear();
+    hasElement_.clear();
+    for (const PolicySpec& p : spec.policies) {
+        if (p.health) {
+            params_.push_back(HealthParams::from(p.health->params, true));
+            hasElement_.push_back(1);
+        } else {
+            params_.push_back(HealthParams::from(ParamSet(crowdHealthTable()), false));
+            hasElement_.push_back(0);
+        }
+    }
+    events_ = spec.panicEvents;
+    eventFired_.assign(events_.size(), 0);
+    crush_ = CrushSummary{};
+    maxPanic_ = 0;
+}
+
+void HealthLayer::activated(const AgentStore& agents, std::size_t i) { record(agents, i).seen = true; }
+
+void HealthLayer::follow(AgentStore& agents) {
+    const std::size_t total = records_.size(), n = agents.size();
+    std::vector<int> newOf(total, -1);  // old record index → new
+    std::vector<HealthRecord> moved;
+    moved.reserve(total);
+    for (std::size_t i = 0; i < n; ++i) {
+        const int old = agents.record[i];
+        if (old < 0 || newOf[static_cast<std::size_t>(old)] >= 0) return;  // not one record per agent: leave as is
+        newOf[static_cast<std::size_t>(old)] = static_cast<int>(moved.size());
+        moved.push_back(records_[static_cast<std::size_t>(old)]);
+    }
+    for (std::size_t k = 0; k < total; ++k)
+        if (newOf[k] < 0) {
+            newOf[k] = static_cast<int>(moved.size());
+            moved.push_back(records_[k]);
+        }
+    records_.swap(moved);
+    for (std::size_t i = 0; i < n; ++i) agents.record[i] = static_cast<int>(i);
+    for (int& r : recordOfSpec_) r = newOf[static_cast<std::size_t>(r)];
+}
+
+const HealthRecord& HealthLayer::recordOf(const AgentStore& agents, std::size_t i) const {
+    return records_[static_cast<std::size_t>(agents.record[i])];
+}
+
+void HealthLayer::beginStep(AgentStore& agents, const PointGrid& grid, double time, double dt) {
+    const std::size_t n = agents.size();
+    nextPanic_.resize(n);
+    const std::ptrdiff_t count = static_cast<std::ptrdiff_t>(n);
+    // Contagion can only raise an agent towards a more panicked neighbour: while nobody panics
+    // (the usual case) the neighbour search per agent is skipped. maxPanic_ is the largest level
+    // of the previous step; agents that left since can only make it too high, which costs a
+    // search but changes no result (a neighbour that raises p also passes the true maximum's test).
+    const double maxPanic = maxPanic_;
+    // Panic: each agent reads the frozen levels of the previous step, writes only its own.
+#pragma omp parallel for schedule(static) if (parallelCheapLoop(static_cast<std::size_t>(count)))
+    for (std::ptrdiff_t ii = 0; ii < count; ++ii) {
+        const std::size_t i = static_cast<std::size_t>(ii);
+        const HealthParams& hp = params_[static_cast<std::size_t>(agents.policy[i])];
+        double p = record(agents, i).panic;
+        if (hp.contagionRate > 0 && hp.contagionRadius > 0 && maxPanic > p && maxPanic >= hp.contagionThreshold) {
+            double pmax = 0;
+            grid.forEachWithin(agents.pos[i], hp.contagionRadius, [&](int j, const Vec2&, double) {
+                if (static_cast<std::size_t>(j) == i) return;
+                const double pj = record(agents, static_cast<std::size_t>(j)).panic;
+                if (pj >= hp.contagionThreshold && pj > pmax) pmax = pj;
+            });
+            if (pmax > p) p += std::min(1.0, hp.contagionRate * dt) * (pmax - p);
+        }
+        p -= std::min(1.0, hp.panicDecay * dt) * p;
+        p = std::max(p, hp.panic);
+        nextPanic_[i] = std::clamp(p, 0.0, 1.0);
+    }
+    // Panic events due now (half a step of tolerance, as agents' start times).
+    for (std::size_t e = 0; e < events_.size(); ++e) {
+        if (eventFired_[e] || events_[e].time > time + 0.5 * dt) continue;
+        eventFired_[e] = 1;
+        const PanicEventSpec& ev = events_[e];
+        for (std::size_t i = 0; i < n; ++i)
+            if ((agents.pos[i] - ev.position).squaredNorm() <= ev.radius * ev.radius)
+                nextPanic_[i] = std::max(nextPanic_[i], std::clamp(ev.strength, 0.0, 1.0));
+    }
+    double newMax = 0;
+#pragma omp parallel for schedule(static) reduction(max : newMax) if (parallelCheapLoop(static_cast<std::size_t>(count)))
+    for (std::ptrdiff_t ii = 0; ii < count; ++ii) {
+        const std::size_t i = static_cast<std::size_t>(ii);
+        HealthRecord& r = record(agents, i);
+        r.panic = nextPanic_[i];
+        newMax = std::max(newMax, r.panic);
+        r.peakPanic = std::max(r.peakPanic, r.panic);
+        const HealthParams& hp = params_[static_cast<std::size_t>(agents.policy[i])];
+        double v = agents.basePrefSpeed[i];
+        double vmax = agents.baseMaxSpeed[i];
+        if (hp.panicSpeedEffect && hp.panicSpeed > v) v += r.panic * (hp.panicSpeed - v);
+        if (hp.injuryEffect && r.injured()) {
+            v *= hp.injuredSpeedFactor;
+            vmax *= hp.injuredMaxSpeedFactor;
+        }
+        agents.prefSpeed[i] = v;
+        agents.maxSpeed[i] = vmax;
+    }
+    maxPanic_ = newMax;
+}
+
+void HealthLayer::steerPreferred(AgentStore& agents, const PointGrid& grid, double time, std::uint64_t seed) const {
+    const std::ptrdiff_t count = static_cast<std::ptrdiff_t>(agents.size());
+    bool any = false;
+    for (const HealthParams& hp : params_) any = any || hp.erratic || hp.herding;
+    if (!any) return;
+#pragma omp parallel for schedule(static) if (parallelCheapLoop(static_cast<std::size_t>(count)))
+    for (std::ptrdiff_t ii = 0; ii < count; ++ii) {
+        const std::size_t i = static_cast<std::size_t>(ii);
+        const HealthParams& hp = params_[static_cast<std::size_t>(agents.policy[i])];
+        const double panic = record(agents, i).panic;
+        const Vec2 pref = agents.prefVel[i];
+        const double speed = pref.norm();
+        if (!(panic > 0) || !(speed > 0)) continue;
+        Vec2 dir = pref / speed;
+        if (hp.herding) {
+            // Helbing, Farkas & Vicsek 2000: e_i = norm((1 - p) e_i0 + p <e_j>), neighbours' headings.
+            Vec2 sum(0, 0);
+            grid.forEachWithin(agents.pos[i], hp.herdingRadius, [&](int j, const Vec2&, double) {
+                if (static_cast<std::size_t>(j) == i) return;
+                const Vec2& vj = agents.vel[static_cast<std::size_t>(j)];
+                const double sj = vj.norm();
+                if (sj > kHeadingSpeed) sum += vj / sj;
+            });
+            const double sn = sum.norm();
+            if (sn > 0) {
+                const double p = hp.herdingWeight * panic;
+                const Vec2 mixed = (1 - p) * dir + p * (sum / sn);
+                if (mixed.squaredNorm() > 1e-12) dir = mixed.normalized();
+            }
+        }
+        if (hp.erratic && hp.erraticAngle > 0) {
+            const auto interval = static_cast<std::uint64_t>(std::floor(time / hp.erraticInterval + 1e-9));
+            Rng rng(seed, static_cast<std::uint64_t>(agents.id[i]), interval, kStreamPanic);
+            dir = rotated(dir, rng.normal() * panic * hp.erraticAngle * kPi / 180.0);
+        }
+        agents.prefVel[i] = dir * speed;
+    }
+}
+
+void HealthLayer::endStep(const AgentStore& agents, double time, double dt) {
+    const std::size_t n = agents.size();
+    const std::ptrdiff_t count = static_cast<std::ptrdiff_t>(n);
+    above_.resize(n);
+    // Per agent, in parallel: each iteration writes only its own record and flag.
+#pragma omp parallel for schedule(static) if (parallelCheapLoop(static_cast<std::size_t>(count)))
+    for (std::ptrdiff_t ii = 0; ii < count; ++ii) {
+        const std::size_t i = static_cast<std::size_t>(ii);
+        HealthRecord& r = record(agents, i);
+        const HealthParams& hp = params_[static_cast<std::size_t>(agents.policy[i])];
+        const double a = agents.contactAccel[i].norm();
+        const double force = hp.bodyMass * agents.mass[i] * a;
+        r.lastForce = force;
+        r.peakContactAccel = std::max(r.peakContactAccel, a);
+        r.peakForce = std::max(r.peakForce, force);
+        above_[i] = force > hp.crushThreshold ? 1 : 0;
+        if (above_[i]) {
+            r.timeAboveThreshold += dt;
+            r.dose += force * dt;
+            if (!r.injured() && r.dose >= hp.injuryDose) r.injuredAt = time;
+        }
+        const Vec2& v = agents.vel[i];
+        const double s = v.norm();
+        if (s > kHeadingSpeed) {
+            const Vec2 h = v / s;
+            if (r.lastHeading.squaredNorm() > 0) {
+                const double cross = r.lastHeading.x() * h.y() - r.lastHeading.y() * h.x();
+                const double dot = r.lastHeading.dot(h);
+                r.headingChange += std::abs(std::atan2(cross, dot));
+                r.movingTime += dt;
+            }
+            r.lastHeading = h;
+        } else {
+            r.lastHeading = Vec2(0, 0);
+        }
+    }
+    // The crowd-level crush summary in agent order (sums in a fixed order: thread-count independent).
+    bool anyAbove = false;
+    for (std::size_t i = 0; i < n; ++i) {
+        if (!above_[i]) continue;
+        const Vec2& x = agents.pos[i];
+        if (crush_.samples == 0) {
+            crush_.xmin = crush_.xmax = x.x();
+            crush_.ymin = crush_.ymax = x.y();
+        }
+        crush_.xmin = std::min(crush_.xmin, x.x());
+        crush_.xmax = std::max(crush_.xmax, x.x());
+        crush_.ymin = std::min(crush_.ymin, x.y());
+        crush_.ymax = std::max(crush_.ymax, x.y());
+        crush_.positionSum += x;
+        ++crush_.samples;
+        anyAbove = true;
+    }
+    if (anyAbove) {
+        if (!(crush_.firstTime == crush_.firstTime)) crush_.firstTime = time - dt;
+        crush_.seconds += dt;
+    }
+}
+
+void HealthLayer::markExit(const AgentStore& agents, std::size_t i, double time) { record(agents, i).exitTime = time; }
+
+std::size_t HealthLayer::injuredCount() const {
+    return static_cast<std::size_t>(
+        std::count_if(records_.begin(), records_.end(), [](const HealthRecord& r) { return r.injured(); }));
+}
+
+double HealthLayer::meanPanic(const AgentStore& agents) const {
+    if (agents.empty()) return 0.0;
+    double sum = 0;
+    for (std::size_t i = 0; i < agents.size(); ++i) sum += recordOf(agents, i).panic;
+    return sum / static_cast<double>(agents.size());
+}
+
+std::string healthCsv(const HealthLayer& health) {
+    std::vector<const HealthRecord*> rows;
+    for (const HealthRecord& r : health.records())
+        if (r.seen) rows.push_back(&r);
+    std::sort(rows.begin(), rows.end(), [](const HealthRecord* a, const HealthRecord* b) { return a->id < b->id; });
+    std::string out = kHealthHeader;
+    out += '\n';
+    auto optional = [&](double v) {
+        out += ',';
+        if (v == v) appendNumber(out, v, 10);
+    };
+    for (const HealthRecord* r : rows) {
+        out += std::to_string(r->id);
+        for (const double v : {r->peakContactAccel, r->peakForce}) { out += ','; appendNumber(out, v); }
+        out += ',';
+        appendNumber(out, r->timeAboveThreshold, 10);
+        out += ',';
+        appendNumber(out, r->dose);
+        optional(r->injuredAt);
+        out += ',';
+        appendNumber(out, r->peakPanic);
+        optional(r->exitTime);
+        out += ',';
+        appendNumber(out, r->meanAbsHeadingChange());
+        out += '\n';
+    }
+    return out;
+}
+
+}  // namespace ch

@@ -1,0 +1,443 @@
+// CrowdHealth — crowd measures on a grid, heat map and safety verdict (see safety.h).
+#include "crowdhealth/health/safety.h"
+
+#include "crowdhealth/core/grid.h"
+#include "crowdhealth/health/health.h"
+#include "crowdhealth/io/output.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+
+namespace ch {
+
+namespace {
+
+int cellIndex(double v, double c) { return static_cast<int>(std::floor(v / c)); }
+
+std::string fmt(double v, int digits = 3) { return formatNumber(v, digits); }
+}  // namespace
+
+const ParamTable& safetyTable() {
+    static const ParamTable t = [] {
+        const SafetyThresholds d;
+        ParamTable table = {
+            ParamSpec::real("cell_size", "m", d.cellSize, 0.25, 50,
+                            "cell of the grid on which density and crowd pressure are evaluated (and of heatmap.csv)"),
+            ParamSpec::real("gaussian_radius", "m", d.gaussianRadius, 0, 5,
+                            "R of the Gaussian weights exp(-d^2/R^2)/(pi R^2) of Helbing et al. 2007"),
+            ParamSpec::real("density_caution", "persons/m2", d.densityCaution, 0, 100,
+                            "local density above which the verdict says caution (Fruin: level of service F)"),
+            ParamSpec::real("density_dangerous", "persons/m2", d.densityDangerous, 0, 100,
+                            "... dangerous (Still: moving crowds at risk)"),
+            ParamSpec::real("density_critical", "persons/m2", d.densityCritical, 0, 100,
+                            "... critical (Still: crowd collapse)"),
+            ParamSpec::real("crowd_pressure", "1/s2", d.crowdPressureCritical, 0, 1e6,
+                            "crowd pressure above which (where the density is above density_caution) the verdict says "
+                            "dangerous (Helbing et al. 2007: crowd turbulence)"),
+            ParamSpec::real("pressure_window", "s", d.pressureWindow, 0, 1e4,
+                            "time constant of the time averages at each place in the crowd pressure "
+                            "(density x variance in time of the local velocity)"),
+            ParamSpec::real("min_duration", "s", d.minDuration, 0, 1e6,
+                            "seconds a density or pressure condition must hold, anywhere, to count"),
+            ParamSpec::real("dose_dangerous_fraction", "-", d.doseDangerousFraction, 0, 1,
+                            "crush is dangerous once someone's dose reaches this share of the policy's injuryDose"),
+        };
+        // Strictly positive quantities, except min_duration (0 = one step is enough) and cell_size,
+        // whose lower limit 0.25 m is itself allowed (finer cells only multiply the grid's size).
+        for (ParamSpec& p : table)
+            if (p.name != "min_duration" && p.name != "cell_size") p.minExclusive = true;
+        return table;
+    }();
+    return t;
+}
+
+double CrowdField::maxDensity() const {
+    double m = 0;
+    for (double d : density) m = std::max(m, d);
+    return m;
+}
+
+std::size_t CrowdField::find(int x, int y) const {
+    const std::uint64_t key = cellKey(x, y);
+    const auto it = std::lower_bound(keys_.begin(), keys_.end(), key);
+    return it != keys_.end() && *it == key ? static_cast<std::size_t>(it - keys_.begin()) : size();
+}
+
+std::uint64_t CrowdField::cellKey(int x, int y) {
+    // y outer, x inner, both shifted to unsigned so that the keys sort as (y, x).
+    return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(y) ^ 0x80000000u) << 32) |
+           static_cast<std::uint64_t>(static_cast<std::uint32_t>(x) ^ 0x80000000u);
+}
+
+CrowdField crowdField(const AgentStore& agents, double cellSize, double R) {
+    CrowdField f;
+    f.cellSize = cellSize;
+    const std::size_t n = agents.size();
+    if (n == 0) return f;
+    const double reach = 3.0 * R;  // the weight is below e^-9 beyond
+    double xmin = agents.pos[0].x(), xmax = xmin, ymin = agents.pos[0].y(), ymax = ymin;
+    for (const Vec2& p : agents.pos) {
+        xmin = std::min(xmin, p.x());
+        xmax = std::max(xmax, p.x());
+        ymin = std::min(ymin, p.y());
+        ymax = std::max(ymax, p.y());
+    }
+    // The cells: every cell of the rectangle covering the agents (one cell of margin) while that
+    // is at most kMaxDenseCells; for a crowd scattered far apart, only the cells within reach of
+    // an agent (the others have no agent within reach: density 0, no local velocity).
+    constexpr double kMaxDenseCells = 1 << 22;
+    const double spanX = std::floor(xmax / cellSize) - std::floor(xmin / cellSize) + 3;
+    const double spanY = std::floor(ymax / cellSize) - std::floor(ymin / cellSize) + 3;
+    if (spanX * spanY <= kMaxDenseCells) {
+        const int ix0 = cellIndex(xmin, cellSize) - 1, iy0 = cellIndex(ymin, cellSize) - 1;
+        const int nx = static_cast<int>(spanX), ny = static_cast<int>(spanY);
+        f.ix.reserve(static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny));
+        f.iy.reserve(f.ix.capacity());
+        for (int y = 0; y < ny; ++y)
+            for (int x = 0; x < nx; ++x) {
+                f.ix.push_back(ix0 + x);
+                f.iy.push_back(iy0 + y);
+            }
+    } else {
+        const int k = static_cast<int>(std::ceil(reach / cellSize));
+        std::vector<std::uint64_t> keys;
+        keys.reserve(n * static_cast<std::size_t>((2 * k + 1) * (2 * k + 1)));
+        for (const Vec2& p : agents.pos) {
+            const int cx = cellIndex(p.x(), cellSize), cy = cellIndex(p.y(), cellSize);
+            for (int dy = -k; dy <= k; ++dy)
+                for (int dx = -k; dx <= k; ++dx) keys.push_back(CrowdField::cellKey(cx + dx, cy + dy));
+        }
+        std::sort(keys.begin(), keys.end());
+        keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+        for (const std::uint64_t key : keys) {
+            f.ix.push_back(static_cast<int>(static_cast<std::uint32_t>(key & 0xffffffffu) ^ 0x80000000u));
+            f.iy.push_back(static_cast<int>(static_cast<std::uint32_t>(key >> 32) ^ 0x80000000u));
+        }
+    }
+    const std::size_t cells = f.ix.size();
+    f.keys_.resize(cells);
+    for (std::size_t c = 0; c < cells; ++c) f.keys_[c] = CrowdField::cellKey(f.ix[c], f.iy[c]);
+    f.density.assign(cells, 0.0);
+    f.velocity.assign(cells, Vec2(0, 0));
+    f.weighted.assign(cells, 0);
+    f.people.assign(cells, 0);
+    // Per agent, its cell: by position in the dense rectangle (row-major), by search otherwise.
+    const bool dense = cells > 0 && cells == static_cast<std::size_t>(f.ix.back() - f.ix.front() + 1) *
+                                                 static_cast<std::size_t>(f.iy.back() - f.iy.front() + 1);
+    const int nx = cells > 0 ? f.ix.back() - f.ix.front() + 1 : 0;
+    for (const Vec2& p : agents.pos) {
+        const int x = cellIndex(p.x(), cellSize), y = cellIndex(p.y(), cellSize);
+        const std::size_t c = dense ? static_cast<std::size_t>(y - f.iy.front()) * static_cast<std::size_t>(nx) +
+                                          static_cast<std::size_t>(x - f.ix.front())
+                                    : f.find(x, y);
+        if (c < cells) ++f.people[c];
+    }
+    PointGrid grid;
+    grid.build(agents.pos, 0.5 * reach);  // half-size cells: fewer candidates per disc query
+    const double norm = 1.0 / (kPi * R * R), invR2 = 1.0 / (R * R);
+    const long count = static_cast<long>(cells);
+#pragma omp parallel for schedule(static) if (count >= 4096)
+    for (long k = 0; k < count; ++k) {
+        const std::size_t c = static_cast<std::size_t>(k);
+        const Vec2 centre = f.centre(f.ix[c], f.iy[c]);
+        double sw = 0;
+        Vec2 swv(0, 0);
+        grid.forEachWithin(centre, reach, [&](int j, const Vec2&, double d2) {
+            const double w = std::exp(-d2 * invR2);
+            sw += w;
+            swv += w * agents.vel[static_cast<std::size_t>(j)];
+        });
+        if (!(sw > 0)) continue;
+        f.density[c] = norm * sw;
+        f.velocity[c] = swv / sw;
+        f.weighted[c] = 1;
+    }
+    return f;
+}
+
+int verdictRank(const std::string& level) {
+    if (level == "critical") return 3;
+    if (level == "dangerous") return 2;
+    if (level == "caution") return 1;
+    return 0;
+}
+
+void SafetyRecorder::record(const Simulation& sim) { recordAt(sim.agents(), sim.time(), &sim.health()); }
+
+void SafetyRecorder::recordCrowd(const AgentStore& agents, double t) { recordAt(agents, t, nullptr); }
+
+void SafetyRecorder::recordAt(const AgentStore& a, double t, const HealthLayer* health) {
+    const double dt = lastTime_ == lastTime_ ? t - lastTime_ : 0.0;
+    if (lastTime_ == lastTime_ && !(dt > 0)) return;  // already recorded at this time
+    const double previous = lastTime_;  // NaN at the first record
+    lastTime_ = t;
+    const CrowdField f = crowdField(a, t_.cellSize, t_.gaussianRadius);
+    // Weight of this sample in the time averages of the crowd pressure (1 = the first sample).
+    const double alpha = std::min(1.0, dt / t_.pressureWindow);
+    maxPressure_ = 0;
+    const double levels[3] = {t_.densityCaution, t_.densityDangerous, t_.densityCritical};
+    bool held[kConditions] = {false, false, false, false, false};
+    std::size_t people[kConditions] = {0, 0, 0, 0, 0};
+    for (std::size_t k = 0; k < f.size(); ++k) {
+        Cell& cell = cells_[{f.iy[k], f.ix[k]}];
+        cell.maxDensity = std::max(cell.maxDensity, f.density[k]);
+        for (int l = 0; l < 3; ++l)
+            if (f.density[k] > levels[l]) {
+                cell.seconds[l] += dt;
+                held[l] = true;
+                people[l] += static_cast<std::size_t>(f.people[k]);
+            }
+        // Crowd pressure: the variance in time of the local velocity at this place, times
+        // the local density (both averaged over the window). A cell with no agent within
+        // reach has no local velocity; its averages restart when agents come back.
+        double pressure = 0;
+        if (f.weighted[k]) {
+            const Vec2& v = f.velocity[k];
+            const bool continues = cell.sampledAt == previous && dt > 0;
+            const double w = continues ? alpha : 1.0;
+            cell.meanDensity += w * (f.density[k] - cell.meanDensity);
+            cell.meanVelocity += w * (v - cell.meanVelocity);
+            cell.meanSquaredSpeed += w * (v.squaredNorm() - cell.meanSquaredSpeed);
+            cell.sampledAt = t;
+            pressure = cell.meanDensity * std::max(0.0, cell.meanSquaredSpeed - cell.meanVelocity.squaredNorm());
+            maxPressure_ = std::max(maxPressure_, pressure);
+        }
+        // Crowd turbulence is a dense-crowd phenomenon (Helbing et al. 2007 observed it at
+        // 7–9 persons/m²). Where people merely pass the same place in different directions at
+        // low density (crossings, counter-flows), the local velocity also varies in time, so
+        // the pressure counts only where the density is above Fruin's level F as well
+        // (docs/crowd-health.md shows a sparse crossing that needs this gate).
+        if (pressure > t_.crowdPressureCritical && cell.meanDensity > t_.densityCaution) {
+            cell.seconds[Pressure] += dt;
+            held[Pressure] = true;
+            people[Pressure] += static_cast<std::size_t>(f.people[k]);
+        }
+    }
+    // Contact per cell, and crush from each agent's last force against its own threshold.
+    std::map<std::pair<int, int>, bool> crushCells;
+    for (std::size_t i = 0; i < a.size() && health != nullptr; ++i) {
+        const HealthLayer& h = *health;
+        const std::pair<int, int> key{cellIndex(a.pos[i].y(), t_.cellSize), cellIndex(a.pos[i].x(), t_.cellSize)};
+        Cell& cell = cells_[key];
+        cell.maxContact = std::max(cell.maxContact, a.contactAccel[i].norm());
+        const HealthRecord& r = h.recordOf(a, i);
+        if (r.lastForce > h.params(r.policy).crushThreshold) {
+            crushCells[key] = true;
+            held[Crush] = true;
+            ++people[Crush];
+        }
+    }
+    for (const auto& [key, on] : crushCells) cells_[key].seconds[Crush] += dt;
+    for (int c = 0; c < kConditions; ++c) {
+        if (!held[c]) continue;
+        Timeline& tl = timeline_[c];
+        if (!(tl.firstTime == tl.firstTime)) tl.firstTime = t;
+        tl.seconds += dt;
+        tl.maxPeople = std::max(tl.maxPeople, people[c]);
+    }
+}
+
+std::string SafetyRecorder::heatmapCsv() const {
+    std::string out = "x,y,max_density,max_contact_accel,seconds_above_density_threshold,seconds_above_crush_threshold\n";
+    if (cells_.empty()) return out;
+    int ix0 = cells_.begin()->first.second, ix1 = ix0;
+    const int iy0 = cells_.begin()->first.first, iy1 = cells_.rbegin()->first.first;
+    for (const auto& [key, cell] : cells_) {
+        ix0 = std::min(ix0, key.second);
+        ix1 = std::max(ix1, key.second);
+    }
+    const Cell empty;
+    // The full rectangle while it is at most 4M cells (a plotting program wants a regular grid);
+    // for a crowd scattered far apart, only the cells that were evaluated, in the same order.
+    const bool full = (static_cast<double>(ix1) - ix0 + 1) * (static_cast<double>(iy1) - iy0 + 1) <= (1 << 22);
+    auto row = [&](int ix, int iy, const Cell& c) {
+        appendNumber(out, (ix + 0.5) * t_.cellSize);
+        out += ',';
+        appendNumber(out, (iy + 0.5) * t_.cellSize);
+        for (const double v : {c.maxDensity, c.maxContact, c.seconds[DensityDangerous], c.seconds[Crush]}) {
+            out += ',';
+            appendNumber(out, v);
+        }
+        out += '\n';
+    };
+    if (!full) {
+        for (const auto& [key, cell] : cells_) row(key.second, key.first, cell);
+        return out;
+    }
+    for (int iy = iy0; iy <= iy1; ++iy)
+        for (int ix = ix0; ix <= ix1; ++ix) {
+            const auto it = cells_.find({iy, ix});
+            row(ix, iy, it == cells_.end() ? empty : it->second);
+        }
+    return out;
+}
+
+VerdictReason SafetyRecorder::cellReason(Condition c, const std::string& level, const std::string& measure,
+                                         double threshold, const std::string& unit, const std::string& what) const {
+    VerdictReason r;
+    r.level = level;
+    r.measure = measure;
+    r.threshold = threshold;
+    r.unit = unit;
+    r.firstTime = timeline_[c].firstTime;
+    r.duration = timeline_[c].seconds;
+    r.people = timeline_[c].maxPeople;
+    double sw = 0, sx = 0, sy = 0;
+    for (const auto& [key, cell] : cells_) {
+        const double s = cell.seconds[c];
+        if (!(s > 0)) continue;
+        const double x = (key.second + 0.5) * t_.cellSize, y = (key.first + 0.5) * t_.cellSize;
+        const double hx = 0.5 * t_.cellSize;
+        if (!r.hasWhere) {
+            r.xmin = x - hx; r.xmax = x + hx; r.ymin = y - hx; r.ymax = y + hx;
+            r.hasWhere = true;
+        }
+        r.xmin = std::min(r.xmin, x - hx); r.xmax = std::max(r.xmax, x + hx);
+        r.ymin = std::min(r.ymin, y - hx); r.ymax = std::max(r.ymax, y + hx);
+        sw += s; sx += s * x; sy += s * y;
+    }
+    if (sw > 0) { r.x = sx / sw; r.y = sy / sw; }
+    r.text = what + " above " + fmt(threshold) + " " + unit + " for " + fmt(r.duration) + " s from t = " +
+             fmt(r.firstTime) + " s, up to " + std::to_string(r.people) + " people at once, around (" + fmt(r.x) +
+             ", " + fmt(r.y) + ") m";
+    return r;
+}
+
+Verdict SafetyRecorder::verdict(const Simulation& sim) const {
+    Verdict v;
+    // A threshold keeps its source in the text only while it is the default; one set in <Safety>
+    // is the user's.
+    const SafetyThresholds defaults;
+    auto what = [](const std::string& measure, double value, double def, const std::string& source) {
+        return measure + (value == def ? " (" + source + ")" : " (threshold set in <Safety>)");
+    };
+    // Density: the highest level that held at least minDuration.
+    const struct { Condition c; const char* level; double threshold, def; const char* source; } density[] = {
+        {DensityCritical, "critical", t_.densityCritical, defaults.densityCritical, "Still: crowd collapse"},
+        {DensityDangerous, "dangerous", t_.densityDangerous, defaults.densityDangerous, "Still: moving crowd at risk"},
+        {DensityCaution, "caution", t_.densityCaution, defaults.densityCaution, "Fruin: level of service F"},
+    };
+    for (const auto& d : density)
+        if (timeline_[d.c].seconds >= t_.minDuration) {
+            v.reasons.push_back(cellReason(d.c, d.level, "density", d.threshold, "persons/m2",
+                                           what("local density", d.threshold, d.def, d.source)));
+            break;
+        }
+    if (timeline_[Pressure].seconds >= t_.minDuration)
+        v.reasons.push_back(cellReason(Pressure, "dangerous", "crowd_pressure", t_.crowdPressureCritical, "1/s2",
+                                       what("crowd pressure", t_.crowdPressureCritical, defaults.crowdPressureCritical,
+                                            "Helbing et al. 2007: crowd turbulence")));
+
+    // Crush, from the per-agent records.
+    const HealthLayer& h = sim.health();
+    const CrushSummary& cs = h.crush();
+    std::size_t above = 0, halfway = 0, injured = 0;
+    double firstInjury = std::numeric_limits<double>::quiet_NaN(), longestInjured = 0, longestHalf = 0;
+    double threshold = 0, dose = 0;
+    for (const HealthRecord& r : h.records()) {
+        if (!r.seen) continue;
+        const HealthParams& p = h.params(r.policy);
+        threshold = std::max(threshold, p.crushThreshold);
+        dose = std::max(dose, p.injuryDose);
+        if (r.timeAboveThreshold > 0) ++above;
+        if (r.dose >= t_.doseDangerousFraction * p.injuryDose) {
+            ++halfway;
+            longestHalf = std::max(longestHalf, r.timeAboveThreshold);
+        }
+        if (r.injured()) {
+            ++injured;
+            longestInjured = std::max(longestInjured, r.timeAboveThreshold);
+            if (!(firstInjury <= r.injuredAt)) firstInjury = r.injuredAt;
+        }
+    }
+    auto crushWhere = [&](VerdictReason& r) {
+        if (cs.samples == 0) return;
+        r.hasWhere = true;
+        r.x = cs.positionSum.x() / static_cast<double>(cs.samples);
+        r.y = cs.positionSum.y() / static_cast<double>(cs.samples);
+        r.xmin = cs.xmin; r.xmax = cs.xmax; r.ymin = cs.ymin; r.ymax = cs.ymax;
+    };
+    auto where = [](const VerdictReason& r) {
+        return r.hasWhere ? ", around (" + fmt(r.x) + ", " + fmt(r.y) + ") m" : std::string();
+    };
+    if (injured > 0) {
+        VerdictReason r;
+        r.level = "critical";
+        r.measure = "injured";
+        r.threshold = dose;
+        r.unit = "N s";
+        r.firstTime = firstInjury;
+        r.duration = longestInjured;
+        r.people = injured;
+        crushWhere(r);
+        r.text = std::to_string(injured) + " injured (crush dose above " + fmt(dose) + " N s) from t = " +
+                 fmt(firstInjury) + " s" + where(r);
+        v.reasons.push_back(r);
+    } else if (halfway > 0) {
+        VerdictReason r;
+        r.level = "dangerous";
+        r.measure = "crush_dose";
+        r.threshold = t_.doseDangerousFraction * dose;
+        r.unit = "N s";
+        r.firstTime = cs.firstTime;
+        r.duration = longestHalf;
+        r.people = halfway;
+        crushWhere(r);
+        r.text = std::to_string(halfway) + " people received a crush dose above " + fmt(r.threshold) +
+                 " N s (half the injury dose)" + where(r);
+        v.reasons.push_back(r);
+    } else if (above > 0) {
+        VerdictReason r;
+        r.level = "caution";
+        r.measure = "crush_force";
+        r.threshold = threshold;
+        r.unit = "N";
+        r.firstTime = cs.firstTime;
+        r.duration = cs.seconds;
+        r.people = above;
+        crushWhere(r);
+        r.text = "contact force above " + fmt(threshold) + " N for " + fmt(cs.seconds) + " s from t = " +
+                 fmt(cs.firstTime) + " s, " + std::to_string(above) + " people" + where(r);
+        v.reasons.push_back(r);
+    }
+    std::stable_sort(v.reasons.begin(), v.reasons.end(), [](const VerdictReason& a, const VerdictReason& b) {
+        return verdictRank(a.level) > verdictRank(b.level);
+    });
+    if (!v.reasons.empty()) v.level = v.reasons.front().level;
+    return v;
+}
+
+Json verdictJsonValue(const Verdict& v) {
+    Json reasons = Json::array();
+    for (const VerdictReason& r : v.reasons) {
+        Json where = nullptr;
+        if (r.hasWhere)
+            where = Json{{"x", jsonNumber(r.x, 6)},       {"y", jsonNumber(r.y, 6)},
+                         {"xmin", jsonNumber(r.xmin, 6)}, {"xmax", jsonNumber(r.xmax, 6)},
+                         {"ymin", jsonNumber(r.ymin, 6)}, {"ymax", jsonNumber(r.ymax, 6)}};
+        reasons.push_back(Json{{"level", r.level},
+                               {"measure", r.measure},
+                               {"threshold", jsonNumber(r.threshold)},
+                               {"unit", r.unit},
+                               {"first_time", jsonNumber(r.firstTime)},
+                               {"duration", jsonNumber(r.duration)},
+                               {"people", r.people},
+                               {"where", where},
+                               {"text", r.text}});
+    }
+    return Json{{"level", v.level}, {"reasons", reasons}};
+}
+
+std::string verdictJson(const Verdict& v) { return verdictJsonValue(v).dump(); }
+
+std::string verdictText(const Verdict& v) {
+    std::string upper = v.level;
+    for (char& c : upper) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+    std::string out = "safety verdict: " + upper + "\n";
+    if (v.reasons.empty()) out += "  no threshold was reached\n";
+    for (const VerdictReason& r : v.reasons) out += "  [" + r.level + "] " + r.text + "\n";
+    return out;
+}
+
+}  // namespace ch
