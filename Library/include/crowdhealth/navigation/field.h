@@ -1,0 +1,129 @@
+// CrowdHealth — geodesic distance fields on a grid (DESIGN §8, docs/navigation.md).
+//
+// The venue is rasterised once into a WalkableGrid of square cells: a cell is blocked when its
+// centre lies inside an obstacle polygon or within half a cell diagonal of a wall segment (so every
+// cell a wall crosses is blocked and a wall of any orientation is a 4-connected barrier), or
+// outside a planar world. Every walkable cell carries a travel speed that keeps paths clear of
+// walls:
+//     f(d) = f_min + (1 − f_min)·min(1, d / clearance),   d = distance from the cell centre to the
+//                                                          nearest wall (m),
+// so f = 1 at least `clearance` from every wall and f_min at a wall (clearance 0: f = 1).
+//
+// A DistanceField is the solution T of the eikonal equation |∇T| = 1/f on the walkable cells with
+// T = (Euclidean distance to the target shape) on the cells next to or inside the target, computed
+// by fast marching (Sethian 1996; second-order upwind differences where both upwind neighbours
+// are known, first order otherwise). With clearance 0, T is the geodesic (shortest walkable path)
+// length in metres; with a clearance, T weighs the stretches closer than `clearance` to a wall by
+// 1/f (a travel cost in metres of open floor).
+//
+// Determinism: fast marching visits cells in a fixed order (ties by cell index), so a field is a
+// pure function of the grid and the target; fields may be built in parallel.
+#pragma once
+
+#include "crowdhealth/core/geometry.h"
+#include "crowdhealth/core/types.h"
+
+#include <cstdint>
+#include <vector>
+
+namespace ch {
+
+class World;
+
+/// Settings of the grid (from <Navigation>, crowdhealth/navigation/venue.h).
+struct WalkableGridSettings {
+    double cellSize = 0.2;   ///< m, side of a grid cell
+    double clearance = 0.5;  ///< m, distance from walls below which travel is slower
+    double minSpeed = 0.2;   ///< f_min, relative travel speed at a wall (0, 1]
+};
+
+/// A shape agents walk to: a point (with an arrival radius), or a polygon (a rectangle is a polygon
+/// of four vertices).
+struct TargetShape {
+    enum class Kind { Point, Polygon } kind = Kind::Point;
+    Vec2 point{0, 0};            ///< Kind::Point
+    double radius = 0;           ///< Kind::Point: reached within this distance (m)
+    std::vector<Vec2> polygon;   ///< Kind::Polygon: vertices in order, closed implicitly
+
+    /// True when p is inside the shape (a point: within `radius`; a polygon: inside, even-odd).
+    bool contains(const Vec2& p) const;
+    /// Euclidean distance from p to the shape (0 inside).
+    double distance(const Vec2& p) const;
+    /// The point of the shape nearest to p (p itself inside a polygon; the centre of a point shape).
+    Vec2 closest(const Vec2& p) const;
+    /// A representative point: the point, or the polygon's vertex mean.
+    Vec2 centre() const;
+    /// Axis-aligned bounds (min, max) of the shape (a point: ± radius).
+    std::pair<Vec2, Vec2> bounds() const;
+};
+
+/// The venue rasterised: which cells are walkable and how fast travel is in each.
+class WalkableGrid {
+public:
+    WalkableGrid() = default;
+    /// Rasterises `world` (its wall segments, obstacle polygons and, when planar, its bounds) over
+    /// the rectangle [lo, hi] (m), which the caller chooses to hold everything agents may reach
+    /// (a planar world's bounds; for an infinite world the bounding box of obstacles, targets and
+    /// agents with a margin). The grid covers the rectangle with whole cells starting at lo.
+    WalkableGrid(const World& world, const WalkableGridSettings& settings, const Vec2& lo, const Vec2& hi);
+
+    int nx() const { return nx_; }
+    int ny() const { return ny_; }
+    double cellSize() const { return h_; }
+    const Vec2& origin() const { return origin_; }   ///< lower-left corner of cell (0, 0)
+    const WalkableGridSettings& settings() const { return settings_; }
+    std::size_t cellCount() const { return static_cast<std::size_t>(nx_) * static_cast<std::size_t>(ny_); }
+    int index(int ix, int iy) const { return iy * nx_ + ix; }
+    Vec2 centre(int ix, int iy) const { return origin_ + Vec2((ix + 0.5) * h_, (iy + 0.5) * h_); }
+    /// Cell holding p (may be outside [0, nx) × [0, ny)).
+    void cellOf(const Vec2& p, int& ix, int& iy) const;
+    bool inGrid(int ix, int iy) const { return ix >= 0 && iy >= 0 && ix < nx_ && iy < ny_; }
+    bool walkable(int ix, int iy) const { return inGrid(ix, iy) && speed_[static_cast<std::size_t>(index(ix, iy))] > 0; }
+    /// True when the cell holding p is walkable.
+    bool walkable(const Vec2& p) const;
+    /// Relative travel speed f of a cell (0 = blocked).
+    float speed(int ix, int iy) const { return speed_[static_cast<std::size_t>(index(ix, iy))]; }
+    /// Distance (m) from a cell's centre to the nearest wall segment (capped at a few clearances).
+    float wallDistance(int ix, int iy) const { return wallDistance_[static_cast<std::size_t>(index(ix, iy))]; }
+    /// Connected-component label of each walkable cell (4-neighbours), -1 when blocked. Two places
+    /// are connected by a walkable path iff their cells carry the same label.
+    int component(int ix, int iy) const { return inGrid(ix, iy) ? label_[static_cast<std::size_t>(index(ix, iy))] : -1; }
+    /// Component of the walkable cell nearest to p within `search` m (-1 if none).
+    int componentNear(const Vec2& p, double search) const;
+
+private:
+    WalkableGridSettings settings_;
+    Vec2 origin_{0, 0};
+    double h_ = 0.2;
+    int nx_ = 0, ny_ = 0;
+    std::vector<float> speed_;         ///< per cell, row-major (y outer)
+    std::vector<float> wallDistance_;  ///< per cell (m)
+    std::vector<int> label_;           ///< per cell
+};
+
+/// The travel-cost field T towards one target (see the top of this file).
+class DistanceField {
+public:
+    DistanceField() = default;
+    /// Fast marching from the target over `grid`. The grid must outlive the field.
+    DistanceField(const WalkableGrid& grid, const TargetShape& target);
+
+    /// T at p (m), bilinear between cell centres (blocked or unreached corners are left out of the
+    /// interpolation); +inf when p cannot reach the target or lies off the grid.
+    double distance(const Vec2& p) const;
+    /// Unit vector along −∇T at p: the direction of the shortest path (zero inside the target or
+    /// where no direction is defined). Never points into a blocked cell from a walkable one.
+    Vec2 direction(const Vec2& p) const;
+    /// T at a cell centre (+inf: blocked or unreachable).
+    float value(int ix, int iy) const { return value_[static_cast<std::size_t>(grid_->index(ix, iy))]; }
+    /// True when at least one cell was seeded (the target touches walkable floor).
+    bool seeded() const { return seeded_; }
+    const WalkableGrid& grid() const { return *grid_; }
+
+private:
+    const WalkableGrid* grid_ = nullptr;
+    std::vector<float> value_;
+    bool seeded_ = false;
+};
+
+}  // namespace ch
