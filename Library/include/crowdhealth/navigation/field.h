@@ -10,7 +10,9 @@
 // so f = 1 at least `clearance` from every wall and f_min at a wall (clearance 0: f = 1).
 //
 // A DistanceField is the solution T of the eikonal equation |∇T| = 1/f on the walkable cells with
-// T = (Euclidean distance to the target shape) on the cells next to or inside the target, computed
+// T = (Euclidean distance to the target shape)/f on the cells next to or inside the target (centre
+// within 1.5 cells of the shape; /f keeps these seeds consistent with the cost the march charges
+// near a wall, and is the plain distance where f = 1), computed
 // by fast marching (Sethian 1996; second-order upwind differences where both upwind neighbours
 // are known, first order otherwise). With clearance 0, T is the geodesic (shortest walkable path)
 // length in metres; with a clearance, T weighs the stretches closer than `clearance` to a wall by
@@ -24,6 +26,7 @@
 #include "crowdhealth/core/types.h"
 
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 namespace ch {
@@ -121,7 +124,21 @@ public:
     const WalkableGrid& grid() const { return *grid_; }
 
 private:
+    /// Gradient of T at a reached cell centre (central differences, one-sided next to blocked or
+    /// unreached cells); false when no neighbour along either axis is usable.
+    bool cellGradient(int ix, int iy, Vec2& g) const;
+    /// Direction from p towards the walkable neighbour (of 8) of cell (ix, iy) with the steepest
+    /// descent of T (no corner cutting); zero when none descends.
+    Vec2 steepestNeighbour(const Vec2& p, int ix, int iy) const;
+    /// Keeps a direction from the walkable cell (ix, iy) from stepping into a blocked cell within
+    /// half a cell: the blocked axis component is dropped, else the steepest neighbour is used.
+    Vec2 keepOffWalls(const Vec2& p, int ix, int iy, const Vec2& dir) const;
+    /// The reached walkable cell nearest to p in the rings 1..`rings` of cells round p's cell
+    /// (the first ring holding one); false when none.
+    bool nearestReached(const Vec2& p, int rings, int& bx, int& by) const;
+
     const WalkableGrid* grid_ = nullptr;
+    TargetShape target_;  ///< a copy: direction() aims straight at it within a couple of cells
     std::vector<float> value_;
     bool seeded_ = false;
 };

@@ -1,0 +1,537 @@
+// CrowdHealth — the walkable grid and geodesic distance fields (fast marching). See
+// crowdhealth/navigation/field.h for the model.
+//
+// Measured accuracy (clearance 0, Tests/navigation_field_test.cpp; error = T − exact shortest path
+// length, at the points the test checks):
+//   ACCURACY_TABLE
+//
+// Cost: ~PERF_NOTE
+#include "crowdhealth/navigation/field.h"
+
+#include "crowdhealth/core/world.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <queue>
+
+namespace ch {
+
+namespace {
+
+constexpr float kFInf = std::numeric_limits<float>::infinity();
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// TargetShape
+
+bool TargetShape::contains(const Vec2& p) const {
+    if (kind == Kind::Point) return (p - point).norm() <= radius;
+    return polygon.size() >= 3 && pointInPolygon(p, polygon);
+}
+
+double TargetShape::distance(const Vec2& p) const {
+    if (kind == Kind::Point) return std::max(0.0, (p - point).norm() - radius);
+    if (polygon.empty()) return kInf;
+    if (polygon.size() == 1) return (p - polygon[0]).norm();
+    if (contains(p)) return 0.0;
+    double best = kInf;
+    const std::size_t n = polygon.size();
+    for (std::size_t k = 0; k < n; ++k)
+        best = std::min(best, distanceToSegmentSquared(p, polygon[k], polygon[(k + 1) % n]));
+    return std::sqrt(best);
+}
+
+Vec2 TargetShape::closest(const Vec2& p) const {
+    if (kind == Kind::Point) return point;
+    if (polygon.empty()) return p;
+    if (polygon.size() == 1) return polygon[0];
+    if (contains(p)) return p;
+    double best = kInf;
+    Vec2 q = polygon[0];
+    const std::size_t n = polygon.size();
+    for (std::size_t k = 0; k < n; ++k) {
+        const Vec2 c = closestPointOnSegment(p, polygon[k], polygon[(k + 1) % n]);
+        const double d = (c - p).squaredNorm();
+        if (d < best) {
+            best = d;
+            q = c;
+        }
+    }
+    return q;
+}
+
+Vec2 TargetShape::centre() const {
+    if (kind == Kind::Point || polygon.empty()) return point;
+    Vec2 c(0, 0);
+    for (const Vec2& v : polygon) c += v;
+    return c / static_cast<double>(polygon.size());
+}
+
+std::pair<Vec2, Vec2> TargetShape::bounds() const {
+    if (kind == Kind::Point || polygon.empty()) return {point - Vec2(radius, radius), point + Vec2(radius, radius)};
+    Vec2 lo = polygon[0], hi = polygon[0];
+    for (const Vec2& v : polygon) {
+        lo = lo.cwiseMin(v);
+        hi = hi.cwiseMax(v);
+    }
+    return {lo, hi};
+}
+
+// ---------------------------------------------------------------------------------------------
+// WalkableGrid
+
+WalkableGrid::WalkableGrid(const World& world, const WalkableGridSettings& settings, const Vec2& lo,
+                           const Vec2& hi)
+    : settings_(settings), origin_(lo), h_(settings.cellSize) {
+    if (!(h_ > 0)) h_ = 0.2;
+    nx_ = std::max(1, static_cast<int>(std::ceil((hi.x() - lo.x()) / h_ - 1e-9)));
+    ny_ = std::max(1, static_cast<int>(std::ceil((hi.y() - lo.y()) / h_ - 1e-9)));
+    const std::size_t n = cellCount();
+    const double clearance = std::max(0.0, settings_.clearance);
+    const double fmin = std::clamp(settings_.minSpeed, 1e-3, 1.0);
+    const double blockRadius = h_ * std::sqrt(0.5);  // half a cell diagonal
+    // Wall distances are only needed up to the clearance (for f) and the blocking radius: capped.
+    const double cap = 2.0 * clearance + 2.0 * h_;
+    wallDistance_.assign(n, static_cast<float>(cap));
+
+    // Each segment visits only the cells within `cap` of it: per row of cells, the x-range of the
+    // part of the segment within `cap` in y, widened by `cap`.
+    for (const Segment& s : world.segments()) {
+        const Vec2 a = s.a, b = s.b;
+        const double y0 = std::min(a.y(), b.y()) - cap, y1 = std::max(a.y(), b.y()) + cap;
+        const int jy0 = std::max(0, static_cast<int>(std::floor((y0 - origin_.y()) / h_ - 0.5)));
+        const int jy1 = std::min(ny_ - 1, static_cast<int>(std::ceil((y1 - origin_.y()) / h_ - 0.5)));
+        const double dy = b.y() - a.y();
+        for (int iy = jy0; iy <= jy1; ++iy) {
+            const double yc = origin_.y() + (iy + 0.5) * h_;
+            double t0 = 0, t1 = 1;
+            if (std::abs(dy) > 1e-12) {
+                double ta = (yc - cap - a.y()) / dy, tb = (yc + cap - a.y()) / dy;
+                if (ta > tb) std::swap(ta, tb);
+                t0 = std::max(t0, ta);
+                t1 = std::min(t1, tb);
+                if (t0 > t1) continue;
+            } else if (std::abs(yc - a.y()) > cap) {
+                continue;
+            }
+            const double xa = a.x() + t0 * (b.x() - a.x()), xb = a.x() + t1 * (b.x() - a.x());
+            const double xlo = std::min(xa, xb) - cap, xhi = std::max(xa, xb) + cap;
+            const int ix0 = std::max(0, static_cast<int>(std::floor((xlo - origin_.x()) / h_ - 0.5)));
+            const int ix1 = std::min(nx_ - 1, static_cast<int>(std::ceil((xhi - origin_.x()) / h_ - 0.5)));
+            for (int ix = ix0; ix <= ix1; ++ix) {
+                const double d = std::sqrt(distanceToSegmentSquared(centre(ix, iy), a, b));
+                float& w = wallDistance_[static_cast<std::size_t>(index(ix, iy))];
+                if (d < w) w = static_cast<float>(d);
+            }
+        }
+    }
+
+    // Inside obstacle polygons: a scanline per row (even-odd crossings, as pointInPolygon).
+    std::vector<unsigned char> inside(n, 0);
+    std::vector<double> xs;
+    for (const ObstacleSpec& o : world.obstacles()) {
+        const auto& pts = o.points;
+        if (pts.size() < 3) continue;
+        double ylo = pts[0].y(), yhi = pts[0].y();
+        for (const Vec2& v : pts) {
+            ylo = std::min(ylo, v.y());
+            yhi = std::max(yhi, v.y());
+        }
+        const int jy0 = std::max(0, static_cast<int>(std::floor((ylo - origin_.y()) / h_ - 0.5)));
+        const int jy1 = std::min(ny_ - 1, static_cast<int>(std::ceil((yhi - origin_.y()) / h_ - 0.5)));
+        for (int iy = jy0; iy <= jy1; ++iy) {
+            const double yc = origin_.y() + (iy + 0.5) * h_;
+            xs.clear();
+            for (std::size_t k = 0, m = pts.size(); k < m; ++k) {
+                const Vec2& p = pts[k];
+                const Vec2& q = pts[(k + 1) % m];
+                if ((p.y() > yc) != (q.y() > yc)) xs.push_back(p.x() + (yc - p.y()) * (q.x() - p.x()) / (q.y() - p.y()));
+            }
+            std::sort(xs.begin(), xs.end());
+            for (std::size_t k = 0; k + 1 < xs.size(); k += 2) {
+                // Cells whose centre x lies in (xs[k], xs[k+1]).
+                const int ix0 = std::max(0, static_cast<int>(std::floor((xs[k] - origin_.x()) / h_ - 0.5)) + 1);
+                const int ix1 = std::min(nx_ - 1, static_cast<int>(std::ceil((xs[k + 1] - origin_.x()) / h_ - 0.5)) - 1);
+                for (int ix = ix0; ix <= ix1; ++ix) inside[static_cast<std::size_t>(index(ix, iy))] = 1;
+            }
+        }
+    }
+
+    const bool planar = world.type() == WorldType::Planar;
+    const WorldSpec& ws = world.spec();
+    speed_.assign(n, 0.0f);
+    for (int iy = 0; iy < ny_; ++iy)
+        for (int ix = 0; ix < nx_; ++ix) {
+            const std::size_t k = static_cast<std::size_t>(index(ix, iy));
+            const double d = wallDistance_[k];
+            if (inside[k] || d < blockRadius) continue;
+            if (planar) {
+                const Vec2 c = centre(ix, iy);
+                if (c.x() < ws.xmin || c.x() > ws.xmax || c.y() < ws.ymin || c.y() > ws.ymax) continue;
+            }
+            const double f = clearance > 0 ? fmin + (1.0 - fmin) * std::min(1.0, d / clearance) : 1.0;
+            speed_[k] = static_cast<float>(f);
+        }
+
+    // Connected components (4-neighbours) by flood fill, labelled in cell order.
+    label_.assign(n, -1);
+    std::vector<int> stack;
+    int next = 0;
+    for (std::size_t k0 = 0; k0 < n; ++k0) {
+        if (speed_[k0] <= 0 || label_[k0] >= 0) continue;
+        label_[k0] = next;
+        stack.push_back(static_cast<int>(k0));
+        while (!stack.empty()) {
+            const int k = stack.back();
+            stack.pop_back();
+            const int ix = k % nx_, iy = k / nx_;
+            const int nb[4][2] = {{ix - 1, iy}, {ix + 1, iy}, {ix, iy - 1}, {ix, iy + 1}};
+            for (const auto& c : nb) {
+                if (!walkable(c[0], c[1])) continue;
+                int& l = label_[static_cast<std::size_t>(index(c[0], c[1]))];
+                if (l >= 0) continue;
+                l = next;
+                stack.push_back(index(c[0], c[1]));
+            }
+        }
+        ++next;
+    }
+}
+
+void WalkableGrid::cellOf(const Vec2& p, int& ix, int& iy) const {
+    ix = static_cast<int>(std::floor((p.x() - origin_.x()) / h_));
+    iy = static_cast<int>(std::floor((p.y() - origin_.y()) / h_));
+}
+
+bool WalkableGrid::walkable(const Vec2& p) const {
+    int ix, iy;
+    cellOf(p, ix, iy);
+    return walkable(ix, iy);
+}
+
+int WalkableGrid::componentNear(const Vec2& p, double search) const {
+    int cx, cy;
+    cellOf(p, cx, cy);
+    if (walkable(cx, cy)) return component(cx, cy);
+    const int r = static_cast<int>(std::ceil(search / h_)) + 1;
+    double best = search * search;
+    int label = -1;
+    for (int iy = cy - r; iy <= cy + r; ++iy)
+        for (int ix = cx - r; ix <= cx + r; ++ix) {
+            if (!walkable(ix, iy)) continue;
+            const double d = (centre(ix, iy) - p).squaredNorm();
+            if (d <= best && (label < 0 || d < best)) {
+                best = d;
+                label = component(ix, iy);
+            }
+        }
+    return label;
+}
+
+// ---------------------------------------------------------------------------------------------
+// DistanceField: fast marching
+
+namespace {
+
+struct HeapEntry {
+    float t;
+    int cell;
+};
+// std::priority_queue keeps the largest on top: "larger" = later (greater T, then greater index),
+// so the smallest T, ties by the smallest cell index, comes out first.
+struct Later {
+    bool operator()(const HeapEntry& a, const HeapEntry& b) const {
+        return a.t > b.t || (a.t == b.t && a.cell > b.cell);
+    }
+};
+
+}  // namespace
+
+DistanceField::DistanceField(const WalkableGrid& grid, const TargetShape& target) : grid_(&grid), target_(target) {
+    const int nx = grid.nx(), ny = grid.ny();
+    const double h = grid.cellSize();
+    value_.assign(grid.cellCount(), kFInf);
+    // Seeds keep their exact value (the march never lowers them) but are accepted in order of T.
+    enum : unsigned char { Far = 0, Trial = 1, Known = 2, Seed = 3 };
+    std::vector<unsigned char> state(grid.cellCount(), Far);
+    std::priority_queue<HeapEntry, std::vector<HeapEntry>, Later> heap;
+
+    // Seeds: walkable cells whose centre is inside the target or within 1.5 cells of it.
+    const double seedRadius = 1.5 * h;
+    auto [blo, bhi] = target.bounds();
+    int ix0, iy0, ix1, iy1;
+    grid.cellOf(blo - Vec2(seedRadius, seedRadius), ix0, iy0);
+    grid.cellOf(bhi + Vec2(seedRadius, seedRadius), ix1, iy1);
+    ix0 = std::max(ix0, 0);
+    iy0 = std::max(iy0, 0);
+    ix1 = std::min(ix1, nx - 1);
+    iy1 = std::min(iy1, ny - 1);
+    for (int iy = iy0; iy <= iy1; ++iy)
+        for (int ix = ix0; ix <= ix1; ++ix) {
+            if (!grid.walkable(ix, iy)) continue;
+            const double d = target.distance(grid.centre(ix, iy));
+            if (!(d <= seedRadius)) continue;
+            const int k = grid.index(ix, iy);
+            value_[static_cast<std::size_t>(k)] = static_cast<float>(d / grid.speed(ix, iy));
+            state[static_cast<std::size_t>(k)] = Seed;
+            heap.push({value_[static_cast<std::size_t>(k)], k});
+            seeded_ = true;
+        }
+
+    auto known = [&](int ix, int iy) {
+        return ix >= 0 && iy >= 0 && ix < nx && iy < ny && state[static_cast<std::size_t>(grid.index(ix, iy))] == Known;
+    };
+    auto val = [&](int ix, int iy) { return static_cast<double>(value_[static_cast<std::size_t>(grid.index(ix, iy))]); };
+
+    // One axis of the upwind stencil at (ix, iy): c·(T − v)² with c = 1 (first order) or 9/4 with
+    // v = (4·T1 − T2)/3 (second order, when the next cell beyond the known neighbour is known and
+    // smaller: T2 = T1 happens across a source or a ridge, where the one-sided stencil is wrong).
+    // Returns false when no neighbour along the axis is known.
+    auto axisTerm = [&](int ix, int iy, int dx, int dy, double& c, double& v) {
+        double t1 = kInf;
+        int side = 0;
+        if (known(ix - dx, iy - dy)) {
+            t1 = val(ix - dx, iy - dy);
+            side = -1;
+        }
+        if (known(ix + dx, iy + dy) && val(ix + dx, iy + dy) < t1) {
+            t1 = val(ix + dx, iy + dy);
+            side = 1;
+        }
+        if (side == 0) return false;
+        const int jx = ix + 2 * side * dx, jy = iy + 2 * side * dy;
+        if (known(jx, jy) && val(jx, jy) < t1) {
+            c = 2.25;
+            v = (4.0 * t1 - val(jx, jy)) / 3.0;
+        } else {
+            c = 1.0;
+            v = t1;
+        }
+        return true;
+    };
+
+    auto update = [&](int ix, int iy) {
+        const double rhs = h / grid.speed(ix, iy);  // h / f
+        double cx = 0, vx = 0, cy = 0, vy = 0;
+        const bool hx = axisTerm(ix, iy, 1, 0, cx, vx);
+        const bool hy = axisTerm(ix, iy, 0, 1, cy, vy);
+        double t = kInf;
+        if (hx) t = std::min(t, vx + rhs / std::sqrt(cx));
+        if (hy) t = std::min(t, vy + rhs / std::sqrt(cy));
+        if (hx && hy) {
+            // cx (t − vx)² + cy (t − vy)² = rhs²; valid when the root is ≥ both upwind values.
+            const double A = cx + cy;
+            const double B = -2.0 * (cx * vx + cy * vy);
+            const double C = cx * vx * vx + cy * vy * vy - rhs * rhs;
+            const double disc = B * B - 4.0 * A * C;
+            if (disc >= 0) {
+                const double r = (-B + std::sqrt(disc)) / (2.0 * A);
+                if (r >= vx && r >= vy) t = std::min(t, r);
+            }
+        }
+        return t;
+    };
+
+    while (!heap.empty()) {
+        const HeapEntry e = heap.top();
+        heap.pop();
+        const std::size_t k = static_cast<std::size_t>(e.cell);
+        if (state[k] == Known || e.t != value_[k]) continue;  // stale entry
+        state[k] = Known;
+        const int ix = e.cell % nx, iy = e.cell / nx;
+        const int nb[4][2] = {{ix - 1, iy}, {ix + 1, iy}, {ix, iy - 1}, {ix, iy + 1}};
+        for (const auto& c : nb) {
+            if (!grid.walkable(c[0], c[1])) continue;
+            const std::size_t m = static_cast<std::size_t>(grid.index(c[0], c[1]));
+            if (state[m] == Known || state[m] == Seed) continue;
+            const float t = static_cast<float>(update(c[0], c[1]));
+            if (t < value_[m]) {
+                value_[m] = t;
+                state[m] = Trial;
+                heap.push({t, static_cast<int>(m)});
+            }
+        }
+    }
+}
+
+double DistanceField::distance(const Vec2& p) const {
+    if (grid_ == nullptr) return kInf;
+    const WalkableGrid& g = *grid_;
+    int cx, cy;
+    g.cellOf(p, cx, cy);
+    if (!g.inGrid(cx, cy)) return kInf;
+    const bool own = g.walkable(cx, cy);
+    if (own && !std::isfinite(value(cx, cy))) return kInf;  // p's own floor cannot reach the target
+    const int label = own ? g.component(cx, cy) : -1;
+    const double h = g.cellSize();
+    const double fx = (p.x() - g.origin().x()) / h - 0.5, fy = (p.y() - g.origin().y()) / h - 0.5;
+    const int i0 = static_cast<int>(std::floor(fx)), j0 = static_cast<int>(std::floor(fy));
+    const double tx = fx - i0, ty = fy - j0;
+    double sum = 0, wsum = 0, nearest = kInf, nearestD = kInf;
+    for (int dj = 0; dj <= 1; ++dj)
+        for (int di = 0; di <= 1; ++di) {
+            const int ix = i0 + di, iy = j0 + dj;
+            if (!g.walkable(ix, iy) || !std::isfinite(value(ix, iy))) continue;
+            if (own && g.component(ix, iy) != label) continue;
+            const double w = (di ? tx : 1 - tx) * (dj ? ty : 1 - ty);
+            sum += w * value(ix, iy);
+            wsum += w;
+            const double d = (g.centre(ix, iy) - p).squaredNorm();
+            if (d < nearestD) {
+                nearestD = d;
+                nearest = value(ix, iy);
+            }
+        }
+    if (wsum > 1e-9) return sum / wsum;
+    if (std::isfinite(nearest) || own) return nearest;
+    // p in a blocked cell with no usable corner (pressed into a wall): the nearest reached cell
+    // within 4 cells plus the straight way to it.
+    int bx, by;
+    if (!nearestReached(p, 4, bx, by)) return kInf;
+    return value(bx, by) + (g.centre(bx, by) - p).norm();
+}
+
+bool DistanceField::nearestReached(const Vec2& p, int rings, int& bx, int& by) const {
+    const WalkableGrid& g = *grid_;
+    int cx, cy;
+    g.cellOf(p, cx, cy);
+    double best = kInf;
+    bx = by = -1;
+    for (int r = 1; r <= rings && bx < 0; ++r)
+        for (int iy = cy - r; iy <= cy + r; ++iy)
+            for (int ix = cx - r; ix <= cx + r; ++ix) {
+                if (std::max(std::abs(ix - cx), std::abs(iy - cy)) != r) continue;  // ring r only
+                if (!g.walkable(ix, iy) || !std::isfinite(value(ix, iy))) continue;
+                const double d = (g.centre(ix, iy) - p).squaredNorm();
+                if (d < best) {
+                    best = d;
+                    bx = ix;
+                    by = iy;
+                }
+            }
+    return bx >= 0;
+}
+
+bool DistanceField::cellGradient(int ix, int iy, Vec2& g) const {
+    const WalkableGrid& grid = *grid_;
+    const double h = grid.cellSize();
+    const double t = value(ix, iy);
+    auto usable = [&](int jx, int jy) { return grid.walkable(jx, jy) && std::isfinite(value(jx, jy)); };
+    bool any = false;
+    double comp[2] = {0, 0};
+    for (int axis = 0; axis < 2; ++axis) {
+        const int dx = axis == 0 ? 1 : 0, dy = 1 - dx;
+        const bool lo = usable(ix - dx, iy - dy), hi = usable(ix + dx, iy + dy);
+        if (lo && hi) comp[axis] = (value(ix + dx, iy + dy) - value(ix - dx, iy - dy)) / (2 * h);
+        else if (hi) comp[axis] = (value(ix + dx, iy + dy) - t) / h;
+        else if (lo) comp[axis] = (t - value(ix - dx, iy - dy)) / h;
+        any = any || lo || hi;
+    }
+    g = Vec2(comp[0], comp[1]);
+    return any;
+}
+
+Vec2 DistanceField::steepestNeighbour(const Vec2& p, int ix, int iy) const {
+    const WalkableGrid& grid = *grid_;
+    const double t0 = value(ix, iy);
+    double best = 0;
+    Vec2 dir(0, 0);
+    for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+            if (dx == 0 && dy == 0) continue;
+            const int jx = ix + dx, jy = iy + dy;
+            if (!grid.walkable(jx, jy) || !std::isfinite(value(jx, jy))) continue;
+            // No corner cutting: a diagonal move needs both cells beside it walkable.
+            if (dx != 0 && dy != 0 && (!grid.walkable(ix + dx, iy) || !grid.walkable(ix, iy + dy))) continue;
+            const double slope = (value(jx, jy) - t0) / std::sqrt(static_cast<double>(dx * dx + dy * dy));
+            if (slope < best) {
+                best = slope;
+                // Towards the neighbour's centre (which also pulls p back to the middle of its cell);
+                // the plain offset when p already sits at that centre.
+                const Vec2 to = grid.centre(jx, jy) - p;
+                dir = to.norm() > 1e-9 ? Vec2(to.normalized()) : Vec2(Vec2(dx, dy).normalized());
+            }
+        }
+    return dir;
+}
+
+Vec2 DistanceField::keepOffWalls(const Vec2& p, int ix, int iy, const Vec2& dir) const {
+    const WalkableGrid& grid = *grid_;
+    const double h = grid.cellSize();
+    auto enters = [&](const Vec2& d, int& bx, int& by) {
+        // The cells a half-cell step along d passes into: the cell of the end point and, when it is
+        // diagonal to (ix, iy), the two cells beside the corner.
+        int qx, qy;
+        grid.cellOf(p + 0.5 * h * d, qx, qy);
+        bx = qx - ix;
+        by = qy - iy;
+        if (!grid.walkable(qx, qy)) return true;
+        if (bx != 0 && by != 0 && (!grid.walkable(qx, iy) || !grid.walkable(ix, qy))) return true;
+        return false;
+    };
+    int bx = 0, by = 0;
+    if (!enters(dir, bx, by)) return dir;
+    // Project onto the walkable side: drop the component that steps into the blocked neighbour.
+    Vec2 d = dir;
+    if (bx != 0 && !grid.walkable(ix + bx, iy)) d.x() = 0;
+    if (by != 0 && !grid.walkable(ix, iy + by)) d.y() = 0;
+    if (d == dir && bx != 0 && by != 0) {
+        // Only the diagonal cell is blocked: keep the larger component.
+        if (std::abs(d.x()) >= std::abs(d.y())) d.y() = 0;
+        else d.x() = 0;
+    }
+    const double n = d.norm();
+    if (n > 0.2) {  // the projection keeps a real part of the descent
+        d /= n;
+        int cx, cy;
+        if (!enters(d, cx, cy)) return d;
+    }
+    return steepestNeighbour(p, ix, iy);
+}
+
+Vec2 DistanceField::direction(const Vec2& p) const {
+    if (grid_ == nullptr || !seeded_) return Vec2(0, 0);
+    const WalkableGrid& g = *grid_;
+    if (target_.contains(p)) return Vec2(0, 0);
+    int cx, cy;
+    g.cellOf(p, cx, cy);
+    if (!g.inGrid(cx, cy)) return Vec2(0, 0);
+    const double h = g.cellSize();
+    if (!g.walkable(cx, cy)) {
+        // Pressed into a wall: the direction of the nearest reached walkable cell (within 4 cells).
+        int bx, by;
+        if (!nearestReached(p, 4, bx, by)) return Vec2(0, 0);
+        return direction(g.centre(bx, by));
+    }
+    if (!std::isfinite(value(cx, cy))) return Vec2(0, 0);
+    const int label = g.component(cx, cy);
+
+    Vec2 dir(0, 0);
+    if (distance(p) < 2.0 * h) {
+        dir = normalisedOrZero(target_.closest(p) - p);
+    } else {
+        // −∇T blended bilinearly from the gradients at the four surrounding cell centres.
+        const double fx = (p.x() - g.origin().x()) / h - 0.5, fy = (p.y() - g.origin().y()) / h - 0.5;
+        const int i0 = static_cast<int>(std::floor(fx)), j0 = static_cast<int>(std::floor(fy));
+        const double tx = fx - i0, ty = fy - j0;
+        Vec2 grad(0, 0);
+        double wsum = 0;
+        for (int dj = 0; dj <= 1; ++dj)
+            for (int di = 0; di <= 1; ++di) {
+                const int ix = i0 + di, iy = j0 + dj;
+                if (!g.walkable(ix, iy) || !std::isfinite(value(ix, iy)) || g.component(ix, iy) != label) continue;
+                Vec2 gc;
+                if (!cellGradient(ix, iy, gc)) continue;
+                const double w = (di ? tx : 1 - tx) * (dj ? ty : 1 - ty) + 1e-9;
+                grad += w * gc;
+                wsum += w;
+            }
+        dir = wsum > 0 ? normalisedOrZero(-grad) : Vec2(0, 0);
+    }
+    if (dir.isZero()) return steepestNeighbour(p, cx, cy);
+    return keepOffWalls(p, cx, cy, dir);
+}
+
+}  // namespace ch
