@@ -13,6 +13,8 @@
 #include "crowdhealth/health/safety.h"
 #include "crowdhealth/core/scenario.h"
 #include "crowdhealth/core/simulation.h"
+#include "crowdhealth/core/world.h"
+#include "crowdhealth/navigation/field.h"
 
 #include "../test_support.h"
 
@@ -187,6 +189,7 @@ struct Result {
     double limitMs = 0;      ///< tight-kernel lower bound for the same pair work (dense SPH)
     double pairsPerAgent = 0;
     double extra1 = 0, extra2 = 0;  ///< neighbour search: build ms, ns per query; kernel: pairs/s
+    double extra3 = 0;              ///< navigation: grid ms
     std::uint64_t hash = 0;
     bool ok = false;
 };
@@ -355,6 +358,104 @@ Result runNeighbourCase(const Case& c, double radius) {
     return r;
 }
 
+/// Navigation fields: a 200 m × 200 m planar venue (long walls with doors, a thick wall, a diagonal
+/// wall, 22 square pillars: ~100 wall segments) rasterised at 0.2 m (1M cells), and 10 distance
+/// fields (exits round the edge and points inside), all on one thread. Reports the preparation
+/// time (grid + 10 fields) and the cost of one direction() + distance() query at random walkable
+/// points.
+Result runNavigationCase(int reps) {
+    Result r;
+    std::snprintf(r.kind, sizeof r.kind, "%s", "navigation");
+    std::snprintf(r.scene, sizeof r.scene, "%s", "venue 200m h0.2");
+    r.threads = 1;
+    omp_set_num_threads(1);
+    WorldSpec ws;
+    ws.type = WorldType::Planar;
+    ws.xmin = 0;
+    ws.ymin = 0;
+    ws.xmax = 200;
+    ws.ymax = 200;
+    auto wall = [](double x0, double y0, double x1, double y1) {
+        ObstacleSpec o;
+        o.points = {Vec2(x0, y0), Vec2(x1, y1)};
+        return o;
+    };
+    std::vector<ObstacleSpec> obstacles = {
+        wall(20, 50, 90, 50),   wall(95, 50, 180, 50),    // a long wall with a 5 m door
+        wall(20, 150, 120, 150), wall(126, 150, 200, 150),
+        wall(60, 60, 60, 140),  wall(140, 60, 140, 100),  wall(140, 106, 140, 145),
+        wall(150, 10, 190, 40),  // diagonal
+        box(95, 160, 105, 190),  // a thick wall
+    };
+    for (int i = 0; i < 22; ++i) {
+        const double x = 70 + 6.0 * (i % 11), y = 80 + 30.0 * (i / 11);
+        obstacles.push_back(box(x, y, x + 1, y + 1));
+    }
+    const World world(ws, obstacles);
+    std::vector<TargetShape> targets;
+    for (const Vec2& c : {Vec2(1, 100), Vec2(199, 100), Vec2(100, 1), Vec2(100, 199), Vec2(1, 1), Vec2(199, 199),
+                          Vec2(30, 170), Vec2(100, 100), Vec2(170, 80), Vec2(40, 20)}) {
+        TargetShape t;
+        t.kind = TargetShape::Kind::Polygon;
+        t.polygon = {c + Vec2(-1, -1), c + Vec2(1, -1), c + Vec2(1, 1), c + Vec2(-1, 1)};
+        targets.push_back(t);
+    }
+    WalkableGridSettings settings;
+    settings.cellSize = 0.2;
+    settings.clearance = 0.5;
+    std::vector<double> gridMs, fieldMs, queryNs;
+    std::uint64_t hash = 0;
+    for (int k = 0; k < reps; ++k) {
+        auto t0 = Clock::now();
+        const WalkableGrid grid(world, settings, Vec2(0, 0), Vec2(200, 200));
+        const double g = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+        t0 = Clock::now();
+        std::vector<DistanceField> fields;
+        fields.reserve(targets.size());
+        for (const TargetShape& t : targets) fields.emplace_back(grid, t);
+        const double f = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+        // Queries at random walkable points, each field in turn.
+        std::mt19937_64 rng(11);
+        std::uniform_real_distribution<double> u(0.0, 200.0);
+        std::vector<Vec2> pts;
+        while (pts.size() < 200000) {
+            const Vec2 p(u(rng), u(rng));
+            if (grid.walkable(p)) pts.push_back(p);
+        }
+        double sink = 0;
+        t0 = Clock::now();
+        for (std::size_t i = 0; i < pts.size(); ++i) {
+            const DistanceField& field = fields[i % fields.size()];
+            const Vec2 d = field.direction(pts[i]);
+            sink += field.distance(pts[i]) + d.x();
+        }
+        const double q = std::chrono::duration<double, std::nano>(Clock::now() - t0).count() / pts.size();
+        gridMs.push_back(g);
+        fieldMs.push_back(f);
+        queryNs.push_back(q);
+        hash = 0;
+        for (int iy = 0; iy < grid.ny(); iy += 7)
+            for (int ix = 0; ix < grid.nx(); ix += 7) {
+                const float v = fields[0].value(ix, iy);
+                std::uint32_t bits;
+                std::memcpy(&bits, &v, sizeof bits);
+                hash = hash * 1099511628211ULL + bits;
+            }
+        r.n = static_cast<double>(grid.cellCount());
+        r.pairsPerAgent = sink > 0 ? 0 : 1;  // keeps the queries
+    }
+    r.extra3 = *std::min_element(gridMs.begin(), gridMs.end());
+    r.extra1 = *std::min_element(fieldMs.begin(), fieldMs.end());
+    r.extra2 = *std::min_element(queryNs.begin(), queryNs.end());
+    r.msMedian = median(gridMs) + median(fieldMs);
+    r.msMin = r.extra3 + r.extra1;
+    r.hash = hash;
+    r.hwmMiB = statusKiB("VmHWM") / 1024.0;
+    r.rssMiB = statusKiB("VmRSS") / 1024.0;
+    r.ok = true;
+    return r;
+}
+
 /// What a run's outputs cost per coarse step for the dense crowd of n agents after one step, on
 /// one thread (issue 6): one metrics.csv row as MetricsRecorder takes it (measureMetrics: density,
 /// crowd pressure grid, …, then the CSV text) and its two largest parts, SafetyRecorder::record
@@ -480,7 +581,7 @@ void usage() {
                  "  --large         also the 1M-agent dense SPH crowd\n"
                  "  --threads LIST  thread counts, comma separated (default 1,2)\n"
                  "  --steps N       timed steps per case (default: by size)\n"
-                 "  --only TEXT     run only cases whose name contains TEXT (dense, order, social, neigh, output)\n"
+                 "  --only TEXT     run only cases whose name contains TEXT (dense, order, social, neigh, navigation, output)\n"
                  "  --csv FILE      also write every row as CSV\n"
                  "  --no-fork       run cases in this process (peak memory then accumulates)\n";
 }
@@ -542,6 +643,11 @@ int main(int argc, char** argv) {
         if (std::strcmp(r.kind, "output") == 0) {
             std::printf("%-14s %8.0f %3.0f  %9.3f ms/frame (min %8.3f)  %9.3g MB/frame  VmHWM %7.1f MiB\n", r.scene,
                         r.n, r.threads, r.msMedian, r.msMin, r.extra1, r.hwmMiB);
+        } else if (std::strcmp(r.kind, "navigation") == 0) {
+            std::printf("%-14s %8.0f %3.0f  grid %7.1f ms + 10 fields %7.1f ms = %7.1f ms (best; median %7.1f)  "
+                        "direction+distance %6.1f ns/query  VmHWM %7.1f MiB  %016llx\n",
+                        r.scene, r.n, r.threads, r.extra3, r.extra1, r.msMin, r.msMedian, r.extra2, r.hwmMiB,
+                        static_cast<unsigned long long>(r.hash));
         } else if (std::strcmp(r.kind, "neighbours") == 0) {
             std::printf("%-14s %8.0f %3.0f  build %8.3f ms  query %7.1f ns/agent (%5.1f hits)  VmHWM %7.1f MiB\n",
                         r.scene, r.n, r.threads, r.extra1, r.extra2, r.pairsPerAgent, r.hwmMiB);
@@ -591,6 +697,11 @@ int main(int argc, char** argv) {
                 stepsFor(n, c.warmup, c.steps);
                 report(inChild([&] { return runNeighbourCase(c, radius); }, fork));
             }
+
+    if (wanted("navigation")) {
+        std::printf("\nnavigation: walkable grid + 10 distance fields, one thread (cells = grid cells)\n");
+        report(inChild([&] { return runNavigationCase(quick ? 1 : 3); }, fork));
+    }
 
     if (wanted("output")) {
         // One frame of the largest crowd of the run (100k agents; --quick: 10k).
