@@ -64,11 +64,14 @@ Simulation::Simulation(ScenarioSpec specIn)
         return spec.agents[a].startTime < spec.agents[b].startTime;
     });
     agents_.reserve(spec.agents.size());
+    if (Navigation::needed(spec_)) navigation_ = std::make_unique<Navigation>(spec_, world_);
     health_.init(spec_);
     resolveRamps();
     activatePending();
     applySchedule();
 }
+
+Simulation::~Simulation() = default;
 
 void Simulation::setThreads(int n) { omp_set_num_threads(std::max(1, n)); }
 
@@ -84,10 +87,33 @@ void Simulation::activatePending() {
     // exactly despite rounding.
     const double now = time() + 0.5 * dtFine_;
     const std::size_t before = agents_.size();
-    while (nextPending_ < pending_.size() && spec_.agents[pending_[nextPending_]].startTime <= now) {
-        const std::size_t k = pending_[nextPending_++];
-        const std::size_t i = agents_.add(spec_.agents[k], agentPolicy_[k], health_.recordFor(k));
-        health_.activated(agents_, i);
+    if (navigation_ == nullptr) {
+        while (nextPending_ < pending_.size() && spec_.agents[pending_[nextPending_]].startTime <= now) {
+            const std::size_t k = pending_[nextPending_++];
+            const std::size_t i = agents_.add(spec_.agents[k], agentPolicy_[k], health_.recordFor(k));
+            health_.activated(agents_, i);
+        }
+    } else {
+        // Arrivals of sources take a free place in their area; one that finds none waits (in
+        // order) and tries again next step, ahead of later arrivals.
+        std::vector<std::size_t> due;
+        due.swap(deferred_);
+        while (nextPending_ < pending_.size() && spec_.agents[pending_[nextPending_]].startTime <= now)
+            due.push_back(pending_[nextPending_++]);
+        std::vector<std::pair<Vec2, double>> placed;
+        for (std::size_t k : due) {
+            AgentSpec& a = spec_.agents[k];
+            if (a.source >= 0) {
+                if (!navigation_->place(agents_, placed, a, spec_.seed, fineSteps_)) {
+                    deferred_.push_back(k);
+                    continue;
+                }
+                placed.push_back({a.position, a.radius});
+            }
+            const std::size_t i = agents_.add(a, agentPolicy_[k], health_.recordFor(k));
+            health_.activated(agents_, i);
+            navigation_->activated(agents_, i, a, time());
+        }
     }
     if (agents_.size() != before) {
         std::vector<int> previous(agents_.size(), -1);
@@ -170,6 +196,7 @@ void Simulation::stepFine() {
         // CrowdHealth: panic update and the speeds in effect, then the preferred velocities, then
         // herding/erratic turns of the preferred direction (each agent writes only its own slot).
         health_.beginStep(agents_, grid_, time(), dtFine_);
+        if (navigation_) navigation_->update(agents_, time(), spec_.seed);
         setPreferredVelocities();
         health_.steerPreferred(agents_, grid_, time(), spec_.seed);
     });
@@ -297,6 +324,14 @@ StepContext Simulation::contextFor(const PolicyStep& s) const {
 void Simulation::setPreferredVelocities() {
     // Part of the frozen state of this step: towards the goal at preferred speed, 0 at the goal.
     const std::ptrdiff_t n = static_cast<std::ptrdiff_t>(agents_.size());
+    if (navigation_) {
+        // Along the path to the current target (crowdhealth/navigation/navigation.h).
+        const double t = time();
+#pragma omp parallel for schedule(static) if (parallelCheapLoop(static_cast<std::size_t>(n)))
+        for (std::ptrdiff_t ii = 0; ii < n; ++ii)
+            agents_.prefVel[static_cast<std::size_t>(ii)] = navigation_->preferred(agents_, static_cast<std::size_t>(ii), t);
+        return;
+    }
 #pragma omp parallel for schedule(static) if (parallelCheapLoop(static_cast<std::size_t>(n)))
     for (std::ptrdiff_t ii = 0; ii < n; ++ii) {
         const std::size_t i = static_cast<std::size_t>(ii);
@@ -414,9 +449,14 @@ void Simulation::removeFinished() {
     const double t = time();
     const std::size_t firstNew = evacuations_.size();
     for (std::size_t i = 0; i < n; ++i) {
-        if (agents_.removeAtGoal[i] && agents_.hasGoal[i] && agents_.atGoal(i)) {
+        // A journey ends in an exit (crowdhealth/navigation/navigation.h); a plain goal as in UMANS.
+        const int exit = navigation_ && agents_.journey[i] >= 0 ? navigation_->leaves(agents_, i) : -1;
+        const bool leaves = navigation_ && agents_.journey[i] >= 0
+                                ? exit >= 0
+                                : agents_.removeAtGoal[i] && agents_.hasGoal[i] && agents_.atGoal(i);
+        if (leaves) {
             remove[i] = 1;
-            evacuations_.push_back(Evacuation{agents_.id[i], t});
+            evacuations_.push_back(Evacuation{agents_.id[i], t, exit});
             health_.markExit(agents_, i, t);
             any = true;
         } else if (!world_.inside(agents_.pos[i])) {

@@ -261,11 +261,18 @@ std::string MetricsRecorder::csv() const {
 // ---- evacuations ---------------------------------------------------------------------------
 
 std::string evacuationsCsv(const Simulation& sim) {
-    std::string out = "id,time\n";
+    // A venue with exits adds the exit each person left by (empty: a plain goal).
+    const VenueSpec& venue = sim.spec().venue;
+    const bool exits = std::any_of(venue.targets.begin(), venue.targets.end(), [](const TargetSpec& t) { return t.exit; });
+    std::string out = exits ? "id,time,exit\n" : "id,time\n";
     for (const Evacuation& e : sim.evacuations()) {
         out += std::to_string(e.id);
         out += ',';
         appendNumber(out, e.time, 10);
+        if (exits) {
+            out += ',';
+            if (e.exit >= 0) out += venue.targets[static_cast<std::size_t>(e.exit)].name;
+        }
         out += '\n';
     }
     return out;

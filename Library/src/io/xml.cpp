@@ -53,6 +53,17 @@ const std::map<std::string, std::string>& homes() {
         {"ramp", "<Schedule>"},
         {"panicevent", "<Schedule>"},
         {"crowdhealth", "<Policy>"},
+        {"navigation", "<World>"},
+        {"target", "<World>"},
+        {"exit", "<World>"},
+        {"exitset", "<World>"},
+        {"journey", "<World>"},
+        {"waypoint", "<Journey>"},
+        {"source", "<Agents>"},
+        {"rate", "<Source>"},
+        {"draw", "<Source>"},
+        {"closeexit", "<Schedule>"},
+        {"openexit", "<Schedule>"},
     };
     return m;
 }
@@ -255,7 +266,7 @@ const char* blockName(Block b) {
 std::vector<std::string> blockChildren(Block b) {
     switch (b) {
         case Block::Policies: return {"Policy"};
-        case Block::Agents: return {"Agent", "AgentGrid", "SpawnRectangle"};
+        case Block::Agents: return {"Agent", "AgentGrid", "SpawnRectangle", "Source"};
         case Block::Obstacles: return {"Obstacle", "Box"};
     }
     return {};
@@ -428,6 +439,7 @@ void readBlock(LoadContext& ctx, const std::string& file, const XMLElement* el, 
                 if (is(c, "Agent")) { readAgent(ctx, file, c); continue; }
                 if (is(c, "AgentGrid")) { readAgentGrid(ctx, file, c); continue; }
                 if (is(c, "SpawnRectangle")) { readSpawnRectangle(ctx, file, c); continue; }
+                if (is(c, "Source")) { readSource(ctx, file, c); continue; }
                 break;
             case Block::Obstacles:
                 if (is(c, "Obstacle")) { readObstacle(ctx, file, c); continue; }
@@ -517,7 +529,13 @@ void readWorld(LoadContext& ctx, const std::string& file, const XMLElement* el) 
         if (is(c, "Obstacles")) readBlock(ctx, file, c, Block::Obstacles, false);
         else if (is(c, "Obstacle")) readObstacle(ctx, file, c);
         else if (is(c, "Box")) readBox(ctx, file, c);
-        else reportUnexpectedElement(ctx, file, c, el->Name(), {"Obstacles", "Obstacle", "Box"});
+        else if (is(c, "Navigation")) readNavigation(ctx, file, c);
+        else if (is(c, "Target")) readTarget(ctx, file, c, false);
+        else if (is(c, "Exit")) readTarget(ctx, file, c, true);
+        else if (is(c, "ExitSet")) readExitSet(ctx, file, c);
+        else if (is(c, "Journey")) readJourney(ctx, file, c);
+        else reportUnexpectedElement(ctx, file, c, el->Name(),
+                                     {"Obstacles", "Obstacle", "Box", "Navigation", "Target", "Exit", "ExitSet", "Journey"});
     }
 }
 
@@ -838,6 +856,7 @@ std::optional<ScenarioSpec> loadScenario(const std::string& path, Diagnostics& d
     }
     readSimulation(ctx, path, simulation, options);
 
+    checkVenue(ctx);
     assignAgentIds(ctx);
     checkPolicyRefs(ctx);
     checkSchedule(ctx);

@@ -41,6 +41,9 @@ ParamSpec goalRadiusParam() {
     return ParamSpec::real("goal_radius", "m", -1, 0, 1e300, "distance at which the goal counts as reached; "
                                                              "absent: the agent's radius");
 }
+ParamSpec premovementParam() {
+    return ParamSpec::real("premovement", "s", 0, 0, 1e300, "time the agent stands after appearing before it walks");
+}
 ParamSpec startTimeParam(const char* name) {
     return ParamSpec::real(name, "s", 0, 0, 1e300, "time at which the agent appears");
 }
@@ -58,6 +61,7 @@ const ParamTable& agentTable() {
             removeAtGoalParam("remove_at_goal"),
             startTimeParam("start_time"),
             goalRadiusParam(),
+            premovementParam(),
         };
         table[5].minExclusive = true;
         return table;
@@ -90,6 +94,7 @@ const ParamTable& agentGridTable() {
             removeAtGoalParam("remove_at_goal"),
             goalRadiusParam(),
             startTimeParam("start_time"),
+            premovementParam(),
         };
         table[4].minExclusive = true;
         return table;
@@ -131,7 +136,8 @@ struct GeneratorChildren {
     bool hasPolicy = false, hasGoal = false;
 };
 
-GeneratorChildren readGeneratorChildren(LoadContext& ctx, const std::string& file, const XMLElement* el) {
+GeneratorChildren readGeneratorChildren(LoadContext& ctx, const std::string& file, const XMLElement* el,
+                                        bool journey = false) {
     GeneratorChildren out;
     for (const XMLElement* c = el->FirstChildElement(); c != nullptr; c = c->NextSiblingElement()) {
         if (is(c, "Policy") && !out.hasPolicy) {
@@ -148,7 +154,7 @@ GeneratorChildren readGeneratorChildren(LoadContext& ctx, const std::string& fil
     }
     if (!out.hasPolicy)
         ctx.diags.error(locOf(file, el), std::string(el->Name()) + ": missing required element <Policy id=\"…\"/>");
-    if (!out.hasGoal)
+    if (!out.hasGoal && !journey)
         ctx.diags.warning(locOf(file, el), std::string(el->Name()) +
                                                " has no <goal>: its agents will stay where they are");
     return out;
@@ -157,7 +163,7 @@ GeneratorChildren readGeneratorChildren(LoadContext& ctx, const std::string& fil
 }  // namespace
 
 void readAgent(LoadContext& ctx, const std::string& file, const XMLElement* el) {
-    ElementReader r(ctx, file, el, "Agent", agentTable());
+    ElementReader r(ctx, file, el, "Agent", agentTable(), {"journey"});
     AgentSpec a;
     a.loc = r.loc();
     const std::optional<double> id = r.optional("id");
@@ -173,6 +179,9 @@ void readAgent(LoadContext& ctx, const std::string& file, const XMLElement* el) 
     a.removeAtGoal = r.value("remove_at_goal") != 0.0;
     a.startTime = r.value("start_time");
     if (std::optional<double> g = r.optional("goal_radius")) a.goalRadius = *g;
+    a.premovement = r.value("premovement");
+    a.journey = r.text("journey").value_or("");
+    if (!a.journey.empty()) ctx.journeyRefs.push_back({a.journey, r.loc("journey")});
 
     const XMLElement *pos = nullptr, *goal = nullptr, *policy = nullptr, *color = nullptr;
     for (const XMLElement* c = el->FirstChildElement(); c != nullptr; c = c->NextSiblingElement()) {
@@ -194,10 +203,10 @@ void readAgent(LoadContext& ctx, const std::string& file, const XMLElement* el) 
     } else if (std::optional<Vec2> p = readPoint(ctx, file, pos, "pos")) {
         a.position = *p;
     }
-    if (goal == nullptr) {
+    if (goal == nullptr && a.journey.empty()) {
         // UMANS only warns: such an agent simply stays where it is.
         ctx.diags.warning(r.loc(), "Agent has no <goal>: it will stay where it is");
-    } else {
+    } else if (goal != nullptr) {
         a.goal = readPoint(ctx, file, goal, "goal");
     }
     if (policy == nullptr) {
@@ -219,7 +228,7 @@ void readAgent(LoadContext& ctx, const std::string& file, const XMLElement* el) 
 }
 
 void readAgentGrid(LoadContext& ctx, const std::string& file, const XMLElement* el) {
-    ElementReader r(ctx, file, el, "AgentGrid", agentGridTable());
+    ElementReader r(ctx, file, el, "AgentGrid", agentGridTable(), {"journey"});
     const std::uint64_t generator = ctx.generatorCount++;
     const auto x = r.required("x"), y = r.required("y");
     const auto columns = r.required("columns"), rows = r.required("rows");
@@ -237,7 +246,10 @@ void readAgentGrid(LoadContext& ctx, const std::string& file, const XMLElement* 
     proto.removeAtGoal = r.value("remove_at_goal") != 0.0;
     proto.startTime = r.value("start_time");
     if (std::optional<double> g = r.optional("goal_radius")) proto.goalRadius = *g;
-    const GeneratorChildren children = readGeneratorChildren(ctx, file, el);
+    proto.premovement = r.value("premovement");
+    proto.journey = r.text("journey").value_or("");
+    if (!proto.journey.empty()) ctx.journeyRefs.push_back({proto.journey, r.loc("journey")});
+    const GeneratorChildren children = readGeneratorChildren(ctx, file, el, !proto.journey.empty());
     if (children.policy) proto.policyId = *children.policy;
     proto.goal = children.goal;
     if (!x || !y || !columns || !rows || r.failed()) return;

@@ -48,6 +48,14 @@ struct LoadContext {
     /// Every policy id declared, valid or not (so a broken policy does not also make every agent
     /// that uses it an error).
     std::map<int, SourceLoc> policyIds;
+    /// Journey names written by agents and generators (empty: none), checked once the venue is loaded.
+    struct JourneyRef {
+        std::string name;
+        SourceLoc loc;
+    };
+    std::vector<JourneyRef> journeyRefs;
+    /// Where each venue element stands, by kind and name, for messages of the final checks.
+    std::map<std::string, SourceLoc> venueLocs;
     /// A <Policies>/<Agents> file could not be read: skip the checks that would only repeat that.
     bool policiesIncomplete = false;
     bool agentsIncomplete = false;
@@ -123,6 +131,17 @@ void readAgentGrid(LoadContext& ctx, const std::string& file, const XMLElement* 
 void readSpawnRectangle(LoadContext& ctx, const std::string& file, const XMLElement* el);
 void readObstacle(LoadContext& ctx, const std::string& file, const XMLElement* el);
 void readBox(LoadContext& ctx, const std::string& file, const XMLElement* el);
+/// Venue elements (xml_venue.cpp): <Navigation>, <Target>, <Exit>, <ExitSet>, <Journey> in
+/// <World>; <Source> in <Agents>; <CloseExit>/<OpenExit> in <Schedule>.
+void readNavigation(LoadContext& ctx, const std::string& file, const XMLElement* el);
+void readTarget(LoadContext& ctx, const std::string& file, const XMLElement* el, bool exit);
+void readExitSet(LoadContext& ctx, const std::string& file, const XMLElement* el);
+void readJourney(LoadContext& ctx, const std::string& file, const XMLElement* el);
+void readSource(LoadContext& ctx, const std::string& file, const XMLElement* el);
+void readExitEvent(LoadContext& ctx, const std::string& file, const XMLElement* el, bool open);
+/// Once everything is loaded: names resolve, exits are exits, targets touch walkable floor and
+/// every agent can reach the targets of its journey (xml_venue.cpp). Then expands the sources.
+void checkVenue(LoadContext& ctx);
 /// <CrowdHealth> inside a <Policy> (xml_schedule.cpp).
 void readCrowdHealth(LoadContext& ctx, const std::string& file, const XMLElement* el, PolicySpec& policy);
 /// <Schedule> inside <Simulation>: <Ramp> and <PanicEvent> children (xml_schedule.cpp).

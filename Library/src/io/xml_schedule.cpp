@@ -189,7 +189,9 @@ void readSchedule(LoadContext& ctx, const std::string& file, const XMLElement* e
     for (const XMLElement* c = el->FirstChildElement(); c != nullptr; c = c->NextSiblingElement()) {
         if (is(c, "Ramp")) readRamp(ctx, file, c);
         else if (is(c, "PanicEvent")) readPanicEvent(ctx, file, c);
-        else reportUnexpectedElement(ctx, file, c, el->Name(), {"Ramp", "PanicEvent"});
+        else if (is(c, "CloseExit")) readExitEvent(ctx, file, c, false);
+        else if (is(c, "OpenExit")) readExitEvent(ctx, file, c, true);
+        else reportUnexpectedElement(ctx, file, c, el->Name(), {"Ramp", "PanicEvent", "CloseExit", "OpenExit"});
     }
 }
 

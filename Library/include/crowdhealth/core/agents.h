@@ -39,6 +39,16 @@ struct AgentStore {
     std::vector<double> density;      ///< SPH density with h = 1 m, walls included (1/m² × mass)
     std::vector<Vec2> contactAccel;   ///< sum of contact accelerations of the last step (m/s²)
 
+    // navigation state (crowdhealth/navigation/navigation.h; untouched without a venue)
+    std::vector<int> journey;         ///< index into VenueSpec::journeys, -1: none
+    std::vector<int> stage;           ///< journey stage: waypoint index, = waypoints: leaving
+    std::vector<int> target;          ///< Navigation target index, -1: none (straight to `goal`)
+    std::vector<double> navDistance;  ///< m, remaining distance to the current target (-1: unknown)
+    std::vector<Vec2> navDir;         ///< unit direction of the path to the current target
+    std::vector<double> holdUntil;    ///< s, the agent waits until then (premovement, dwell)
+    std::vector<unsigned char> navFlags;  ///< Navigation's per-agent flags (admitted, in service …)
+    std::vector<double> nextChoice;   ///< s, next re-evaluation of a quickest exit choice
+
     std::size_t size() const { return id.size(); }
     bool empty() const { return id.empty(); }
 
@@ -60,6 +70,7 @@ struct AgentStore {
         f(id), f(record), f(policy), f(radius), f(prefSpeed), f(maxSpeed), f(basePrefSpeed), f(baseMaxSpeed);
         f(maxAcceleration), f(mass), f(goalRadius), f(removeAtGoal), f(hasGoal), f(goal);
         f(pos), f(vel), f(prefVel), f(viewDir), f(density), f(contactAccel);
+        f(journey), f(stage), f(target), f(navDistance), f(navDir), f(holdUntil), f(navFlags), f(nextChoice);
     }
 };
 

@@ -40,6 +40,8 @@ enum RngStream : std::uint64_t {
     kStreamSpawn = 3,
     kStreamPanic = 4,
     kStreamSymmetry = 5,  ///< symmetry breaking of the preferred direction (ScenarioSpec::symmetryBreaking)
+    kStreamExitChoice = 6,  ///< weighted exit choice (crowdhealth/navigation/navigation.h)
+    kStreamSource = 7,      ///< attributes and places of agents created by sources
     kStreamUser = 100  ///< first id free for new components
 };
 

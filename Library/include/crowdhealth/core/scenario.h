@@ -6,6 +6,7 @@
 #include "crowdhealth/io/diagnostics.h"
 #include "crowdhealth/core/params.h"
 #include "crowdhealth/core/types.h"
+#include "crowdhealth/navigation/venue.h"
 
 #include <array>
 #include <cstdint>
@@ -161,6 +162,13 @@ struct AgentSpec {
     double startTime = 0;       ///< s; the agent appears at this time
     int policyId = 0;
     std::optional<std::array<int, 3>> color;  ///< RGB 0..255 for viewers
+    /// A <Journey> of the venue (crowdhealth/navigation/venue.h); empty: walk to `goal` (UMANS).
+    std::string journey;
+    /// s the agent stands after appearing before it starts walking (RiMEA's premovement time).
+    double premovement = 0;
+    /// Index into VenueSpec::sources for an agent a source creates: its position is chosen when it
+    /// arrives (Navigation::place); -1 for every other agent.
+    int source = -1;
     SourceLoc loc;
 };
 
@@ -232,6 +240,8 @@ struct ScenarioSpec {
     std::vector<PanicEventSpec> panicEvents; ///< <Schedule><PanicEvent>, in file order
     OutputSpec output;
     SafetyThresholds safety;                 ///< <Safety>; defaults without it
+    /// Navigation, targets, exits, journeys, sources (DESIGN §8); empty: UMANS' straight goals.
+    VenueSpec venue;
 
     double fineStep() const { return deltaTimeFine > 0 ? deltaTimeFine : deltaTime; }
     /// Number of fine steps per coarse step (validated by the loader to be a whole number).

@@ -22,10 +22,12 @@
 #include "crowdhealth/core/scenario.h"
 #include "crowdhealth/health/health.h"
 #include "crowdhealth/core/world.h"
+#include "crowdhealth/navigation/navigation.h"
 
 #include <array>
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -41,7 +43,8 @@ std::vector<double> measureDensity(const std::vector<Vec2>& positions, const std
 
 struct Evacuation {
     AgentId id;
-    double time;  ///< s, the time at which the agent was removed at its goal
+    double time;    ///< s, the time at which the agent was removed at its goal
+    int exit = -1;  ///< the <Exit> it left by (index into VenueSpec::targets); -1: its goal
 };
 
 class Simulation {
@@ -56,6 +59,10 @@ public:
     /// Takes the spec by value: pass a temporary or std::move it to avoid a copy (it holds every
     /// agent's spec, which counts at a million agents).
     explicit Simulation(ScenarioSpec spec);
+    ~Simulation();
+    /// Parts (the navigation) refer to the simulation's own spec and world: neither copied nor moved.
+    Simulation(const Simulation&) = delete;
+    Simulation& operator=(const Simulation&) = delete;
 
     /// OpenMP threads for the parallel phases (results do not depend on it).
     void setThreads(int n);
@@ -90,8 +97,8 @@ public:
     const std::vector<Evacuation>& evacuations() const { return evacuations_; }
     /// Agents removed because they left a planar world.
     std::size_t leftWorld() const { return leftWorld_; }
-    /// Agents not yet activated (start_time in the future).
-    std::size_t pending() const { return pending_.size() - nextPending_; }
+    /// Agents not yet activated (start_time in the future, or a source's arrival waiting for room).
+    std::size_t pending() const { return pending_.size() - nextPending_ + deferred_.size(); }
     std::size_t totalAgents() const { return spec_.agents.size(); }
 
     /// Fills agents().density with the SPH density measured with the Poly6 kernel (h in m),
@@ -108,6 +115,12 @@ public:
     /// read around whole phases only; profiling, never part of the physics).
     const std::array<double, kPhases>& phaseSeconds() const { return phaseSeconds_; }
     void resetPhaseTimes() { phaseSeconds_.fill(0.0); }
+
+    /// Global navigation (crowdhealth/navigation/navigation.h); nullptr when the scenario has no
+    /// venue (no <Navigation>, targets, journeys, sources or premovement times: UMANS' straight goals).
+    const Navigation* navigation() const { return navigation_.get(); }
+    /// Arrivals of sources that found no free place yet (they retry every fine step).
+    std::size_t waitingArrivals() const { return deferred_.size(); }
 
     /// The CrowdHealth layer: per-agent crush and panic records (crowdhealth/health/health.h).
     const HealthLayer& health() const { return health_; }
@@ -159,6 +172,8 @@ private:
     std::uint64_t fineSteps_ = 0;
     std::vector<std::size_t> pending_;  ///< indices into spec_.agents, by start time then file order
     std::size_t nextPending_ = 0;
+    std::unique_ptr<Navigation> navigation_;
+    std::vector<std::size_t> deferred_;  ///< source arrivals that found no free place, in order
     std::vector<Evacuation> evacuations_;
     std::size_t leftWorld_ = 0;
     int reorderInterval_ = kReorderInterval;

@@ -1,0 +1,106 @@
+// CrowdHealth — global navigation beneath every policy (DESIGN §8, docs/navigation.md).
+//
+// A scenario with a venue (crowdhealth/navigation/venue.h: <Navigation>, targets, exits, journeys
+// or sources) gets a Navigation. Per fine step, before preferred velocities are set:
+//   1. exits open and close at their scheduled times; agents heading to a closed exit re-route;
+//   2. (parallel, each agent its own slot) the direction and remaining distance of every agent to
+//      its current target: along −∇T of the target's geodesic distance field with <Navigation>,
+//      straight at the target's nearest point without it;
+//   3. (serial, in agent order, on the state of 2) arrivals: an agent inside its waypoint starts
+//      its dwell (admitted first at a checkpoint with a capacity), then goes on to the next stage;
+//      a checkpoint admits its free places to the nearest waiting agents (ties by id); agents at
+//      the exit stage choose an exit by their set's rule (quickest: re-evaluated every interval);
+//   4. the preferred velocity: direction × preferred speed, zero while the agent waits (its
+//      premovement time, a dwell, or a queue in front of a full checkpoint) or stands at its last
+//      waypoint.
+// Agents with a plain goal and no journey keep UMANS' semantics (goal radius, remove_at_goal); with
+// <Navigation> only their direction follows the path. Without a venue the simulation has no
+// Navigation and behaves exactly as before.
+#pragma once
+
+#include "crowdhealth/core/agents.h"
+#include "crowdhealth/core/scenario.h"
+#include "crowdhealth/core/world.h"
+#include "crowdhealth/navigation/field.h"
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+namespace ch {
+
+class Navigation {
+public:
+    /// Builds the walkable grid and one distance field per target (and per distinct agent goal)
+    /// when the venue has <Navigation>. Throws std::runtime_error naming the target when a target
+    /// touches no walkable floor.
+    Navigation(const ScenarioSpec& spec, const World& world);
+    ~Navigation();
+
+    /// True when the scenario needs a Navigation (a <Navigation>, or any target, journey or source).
+    static bool needed(const ScenarioSpec& spec);
+
+    /// Sets up agent i (just added from `s`): journey, first target, premovement.
+    void activated(AgentStore& agents, std::size_t i, const AgentSpec& s, double time);
+    /// A free place for an agent of source `source` (its radius in `s`): a point inside the
+    /// source's area clear of walls and of every agent in `agents` and `placed`; false when none
+    /// was found in this step's attempts (the arrival waits for the next step).
+    bool place(const AgentStore& agents, const std::vector<std::pair<Vec2, double>>& placed, AgentSpec& s,
+               std::uint64_t seed, std::uint64_t step) const;
+
+    /// Steps 1–3 above at time t (s).
+    void update(AgentStore& agents, double t, std::uint64_t seed);
+    /// Step 4: agent i's preferred velocity (m/s).
+    Vec2 preferred(const AgentStore& agents, std::size_t i, double t) const;
+    /// The exit agent i leaves by now (index into VenueSpec::targets: an open exit it may leave
+    /// by and stands inside), -1 when it does not leave.
+    int leaves(const AgentStore& agents, std::size_t i) const;
+
+    /// The geodesic grid (nullptr without <Navigation>).
+    const WalkableGrid* grid() const { return grid_.get(); }
+    /// Number of targets with a field (venue targets and distinct agent goals).
+    std::size_t fieldCount() const { return fields_.size(); }
+    /// Remaining path length (m) from p to venue target `target` (index into VenueSpec::targets):
+    /// geodesic with <Navigation>, straight otherwise.
+    double distanceTo(int target, const Vec2& p) const;
+    /// Current state of exit `target` (true = open).
+    bool open(int target) const { return open_[static_cast<std::size_t>(target)] != 0; }
+
+    /// Wall-clock seconds spent preparing (grid and fields), for summaries and benchmarks.
+    double preparationSeconds() const { return prepSeconds_; }
+
+    /// Per-checkpoint log for tests and outputs: (agent id, waypoint, service start, service end).
+    struct Service {
+        AgentId id;
+        int journey, waypoint;
+        double start, end;
+    };
+    const std::vector<Service>& services() const { return services_; }
+
+private:
+    struct Target;  // a shape with its field
+    const ScenarioSpec& spec_;
+    const World& world_;
+    std::unique_ptr<WalkableGrid> grid_;
+    std::vector<Target> targets_;        ///< venue targets, then one point per distinct agent goal
+    std::vector<DistanceField> fields_;  ///< per target (empty without <Navigation>)
+    std::vector<unsigned char> open_;    ///< per venue target: exits open/closed
+    std::size_t nextEvent_ = 0;
+    std::vector<int> eventOrder_;        ///< exit events by time (stable)
+    std::vector<int> exitSetOf_;         ///< per journey: its exit set (-1 none)
+    std::vector<int> leaveExitOf_;       ///< per journey: its single exit (-1 none)
+    std::vector<Service> services_;
+    std::vector<std::vector<double>> queues_;  ///< per target: sorted distances of those heading there
+    double prepSeconds_ = 0;
+
+    int goalTarget(const Vec2& goal) const;
+    /// True when agent i has passed every waypoint of its journey (heading for an exit or done).
+    bool leaving(const AgentStore& a, std::size_t i) const;
+    /// Agent i goes on from its current waypoint to the next stage.
+    void advance(AgentStore& a, std::size_t i, double t, std::uint64_t seed);
+    /// Chooses agent i's exit by its journey's rule (a weighted choice stands while its exit is open).
+    void chooseExit(AgentStore& a, std::size_t i, double t, std::uint64_t seed);
+    Vec2 directionTo(int target, const Vec2& p, double& distance) const;
+};
+
+}  // namespace ch

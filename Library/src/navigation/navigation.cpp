@@ -1,0 +1,500 @@
+// CrowdHealth — global navigation: targets, exits, journeys, checkpoints (navigation.h).
+#include "crowdhealth/navigation/navigation.h"
+
+#include "crowdhealth/core/parallel.h"
+#include "crowdhealth/core/rng.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <stdexcept>
+
+namespace ch {
+
+namespace {
+// AgentStore::navFlags bits.
+constexpr unsigned char kAdmitted = 1;   ///< may walk into its checkpoint (a place is kept for it)
+constexpr unsigned char kInService = 2;  ///< dwelling inside its waypoint
+constexpr unsigned char kDone = 4;       ///< reached the last waypoint of a journey without an exit
+/// m: an agent not yet admitted to a full checkpoint stops this far (path length) from it.
+constexpr double kQueueDistance = 1.0;
+/// Slowest speed (m/s) used to turn a path length into a walking time (quickest rule).
+constexpr double kMinChoiceSpeed = 0.1;
+}  // namespace
+
+struct Navigation::Target {
+    TargetShape shape;
+    bool exit = false;
+    double width = 1.0;
+    int capacity = 0;  ///< checkpoint places (0 = unlimited), from the journeys' waypoints
+};
+
+bool Navigation::needed(const ScenarioSpec& spec) {
+    if (!spec.venue.empty()) return true;
+    for (const AgentSpec& a : spec.agents)
+        if (a.premovement > 0 || !a.journey.empty() || a.source >= 0) return true;
+    return false;
+}
+
+Navigation::Navigation(const ScenarioSpec& spec, const World& world) : spec_(spec), world_(world) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const VenueSpec& venue = spec.venue;
+    for (const TargetSpec& t : venue.targets) {
+        Target target;
+        target.shape = t.shape;
+        target.exit = t.exit;
+        if (t.width > 0) {
+            target.width = t.width;
+        } else if (t.shape.kind == TargetShape::Kind::Polygon) {
+            // The longest side: a rectangle drawn across a door spans its width.
+            double w = 0;
+            const std::vector<Vec2>& p = t.shape.polygon;
+            for (std::size_t k = 0; k < p.size(); ++k) w = std::max(w, (p[(k + 1) % p.size()] - p[k]).norm());
+            target.width = w;
+        }
+        targets_.push_back(std::move(target));
+    }
+    open_.assign(targets_.size(), 1);
+    for (const JourneySpec& j : venue.journeys) {
+        exitSetOf_.push_back(j.leaveBy.empty() ? -1 : venue.exitSetIndex(j.leaveBy));
+        leaveExitOf_.push_back(j.leaveBy.empty() || exitSetOf_.back() >= 0 ? -1 : venue.targetIndex(j.leaveBy));
+        for (const WaypointSpec& w : j.waypoints) {
+            const int t = venue.targetIndex(w.target);
+            if (t >= 0 && w.capacity > 0) {
+                int& c = targets_[static_cast<std::size_t>(t)].capacity;
+                c = c == 0 ? w.capacity : std::min(c, w.capacity);
+            }
+        }
+    }
+    eventOrder_.resize(venue.exitEvents.size());
+    for (std::size_t k = 0; k < eventOrder_.size(); ++k) eventOrder_[k] = static_cast<int>(k);
+    std::stable_sort(eventOrder_.begin(), eventOrder_.end(), [&](int a, int b) {
+        return venue.exitEvents[static_cast<std::size_t>(a)].time < venue.exitEvents[static_cast<std::size_t>(b)].time;
+    });
+
+    if (!venue.navigation) {
+        prepSeconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        return;
+    }
+    if (world.type() == WorldType::Toric)
+        throw std::runtime_error("<Navigation> needs a Planar or Infinite world, not a Toric one");
+    // Plain goals navigate too: one point target per distinct goal.
+    for (const AgentSpec& a : spec.agents)
+        if (a.journey.empty() && a.goal && goalTarget(*a.goal) < 0) {
+            Target target;
+            target.shape.kind = TargetShape::Kind::Point;
+            target.shape.point = *a.goal;
+            targets_.push_back(std::move(target));
+        }
+
+    // The grid: a planar world's bounds; otherwise everything named, with a margin.
+    Vec2 lo, hi;
+    if (world.type() == WorldType::Planar) {
+        const WorldSpec& w = spec.world;
+        lo = Vec2(w.xmin, w.ymin);
+        hi = Vec2(w.xmax, w.ymax);
+    } else {
+        lo = Vec2(kInf, kInf);
+        hi = Vec2(-kInf, -kInf);
+        auto grow = [&](const Vec2& p) {
+            lo = lo.cwiseMin(p);
+            hi = hi.cwiseMax(p);
+        };
+        for (const ObstacleSpec& o : spec.obstacles)
+            for (const Vec2& p : o.points) grow(p);
+        for (const Target& t : targets_) {
+            const auto b = t.shape.bounds();
+            grow(b.first);
+            grow(b.second);
+        }
+        for (const AgentSpec& a : spec.agents)
+            if (a.source < 0) grow(a.position);
+        for (const SourceSpec& s : venue.sources)
+            for (const Vec2& p : s.area) grow(p);
+        if (!std::isfinite(lo.x())) lo = hi = Vec2(0, 0);
+        const double m = venue.navigation->margin;
+        lo -= Vec2(m, m);
+        hi += Vec2(m, m);
+    }
+    grid_ = std::make_unique<WalkableGrid>(world, venue.navigation->grid, lo, hi);
+    fields_.resize(targets_.size());
+    const std::ptrdiff_t n = static_cast<std::ptrdiff_t>(targets_.size());
+    // Fields are independent: built in parallel, each a pure function of grid and target.
+#pragma omp parallel for schedule(dynamic, 1) if (n > 1)
+    for (std::ptrdiff_t k = 0; k < n; ++k)
+        fields_[static_cast<std::size_t>(k)] = DistanceField(*grid_, targets_[static_cast<std::size_t>(k)].shape);
+    for (std::size_t k = 0; k < fields_.size(); ++k)
+        if (!fields_[k].seeded()) {
+            const std::string what = k < venue.targets.size() ? "target '" + venue.targets[k].name + "'"
+                                                               : "a goal at (" + std::to_string(targets_[k].shape.point.x()) +
+                                                                     ", " + std::to_string(targets_[k].shape.point.y()) + ")";
+            throw std::runtime_error(what + " touches no walkable floor (inside a wall or off the navigation grid)");
+        }
+    prepSeconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+Navigation::~Navigation() = default;
+
+int Navigation::goalTarget(const Vec2& goal) const {
+    for (std::size_t k = spec_.venue.targets.size(); k < targets_.size(); ++k)
+        if (targets_[k].shape.point == goal) return static_cast<int>(k);
+    return -1;
+}
+
+Vec2 Navigation::directionTo(int target, const Vec2& p, double& distance) const {
+    const Target& t = targets_[static_cast<std::size_t>(target)];
+    if (!fields_.empty()) {
+        const DistanceField& f = fields_[static_cast<std::size_t>(target)];
+        distance = f.distance(p);
+        if (std::isfinite(distance)) return f.direction(p);
+    }
+    // No field (or p off the grid): straight at the nearest point of the target.
+    const Vec2 c = t.shape.closest(p);
+    distance = (c - p).norm();
+    return normalisedOrZero(c - p);
+}
+
+double Navigation::distanceTo(int target, const Vec2& p) const {
+    double d = 0;
+    directionTo(target, p, d);
+    return d;
+}
+
+void Navigation::activated(AgentStore& a, std::size_t i, const AgentSpec& s, double time) {
+    a.holdUntil[i] = time + s.premovement;
+    // Quickest choices are re-evaluated at staggered times (a fixed fraction of the interval per
+    // id), so a crowd does not switch all in one step on the same snapshot.
+    {
+        const double phase = std::fmod(static_cast<double>(s.id < 0 ? 0 : s.id) * 0.6180339887498949, 1.0);
+        double interval = 0;
+        for (const ExitSetSpec& e : spec_.venue.exitSets) interval = std::max(interval, e.interval);
+        a.nextChoice[i] = time + phase * interval;
+    }
+    if (!s.journey.empty()) {
+        const int j = spec_.venue.journeyIndex(s.journey);
+        if (j < 0) throw std::runtime_error("agent " + std::to_string(s.id) + " names journey '" + s.journey + "', which does not exist");
+        a.journey[i] = j;
+        a.stage[i] = 0;
+        const JourneySpec& js = spec_.venue.journeys[static_cast<std::size_t>(j)];
+        if (js.waypoints.empty()) {
+            chooseExit(a, i, time, spec_.seed);
+        } else {
+            a.target[i] = spec_.venue.targetIndex(js.waypoints[0].target);
+        }
+    } else if (s.goal && !fields_.empty()) {
+        a.target[i] = goalTarget(*s.goal);
+    }
+    if (a.target[i] >= 0) a.navDir[i] = directionTo(a.target[i], a.pos[i], a.navDistance[i]);
+}
+
+bool Navigation::place(const AgentStore& agents, const std::vector<std::pair<Vec2, double>>& placed, AgentSpec& s,
+                       std::uint64_t seed, std::uint64_t step) const {
+    const SourceSpec& src = spec_.venue.sources[static_cast<std::size_t>(s.source)];
+    Vec2 lo(kInf, kInf), hi(-kInf, -kInf);
+    for (const Vec2& p : src.area) {
+        lo = lo.cwiseMin(p);
+        hi = hi.cwiseMax(p);
+    }
+    // The people already near the area: one pass over the crowd, then the attempts test only them.
+    const double reach = s.radius + 1.0;
+    std::vector<std::pair<Vec2, double>> near;
+    for (std::size_t j = 0; j < agents.size(); ++j) {
+        const Vec2& q = agents.pos[j];
+        if (q.x() >= lo.x() - reach && q.x() <= hi.x() + reach && q.y() >= lo.y() - reach && q.y() <= hi.y() + reach)
+            near.push_back({q, agents.radius[j]});
+    }
+    for (const auto& p : placed) near.push_back(p);
+    Rng rng(seed, static_cast<std::uint64_t>(s.id), kStreamSource, step + 1);
+    std::vector<int> segs;
+    constexpr int kAttempts = 40;
+    for (int k = 0; k < kAttempts; ++k) {
+        const Vec2 p(rng.uniform(lo.x(), hi.x()), rng.uniform(lo.y(), hi.y()));
+        if (!pointInPolygon(p, src.area)) continue;
+        if (!world_.inside(p) || world_.insideObstacle(p)) continue;
+        if (grid_ && !grid_->walkable(p)) continue;
+        world_.segmentsNear(p, s.radius, segs);
+        bool free = true;
+        for (int g : segs) {
+            const Segment& seg = world_.segments()[static_cast<std::size_t>(g)];
+            if (distanceToSegmentSquared(p, seg.a, seg.b) < s.radius * s.radius) {
+                free = false;
+                break;
+            }
+        }
+        for (std::size_t m = 0; free && m < near.size(); ++m) {
+            const double r = s.radius + near[m].second;
+            if ((near[m].first - p).squaredNorm() < r * r) free = false;
+        }
+        if (!free) continue;
+        s.position = p;
+        return true;
+    }
+    return false;
+}
+
+void Navigation::chooseExit(AgentStore& a, std::size_t i, double t, std::uint64_t seed) {
+    const VenueSpec& venue = spec_.venue;
+    const int j = a.journey[i];
+    const int setIndex = exitSetOf_[static_cast<std::size_t>(j)];
+    const ExitSetSpec* set = setIndex >= 0 ? &venue.exitSets[static_cast<std::size_t>(setIndex)] : nullptr;
+    std::vector<int> candidates;
+    std::vector<double> weights;
+    if (set) {
+        for (std::size_t k = 0; k < set->exits.size(); ++k) {
+            candidates.push_back(venue.targetIndex(set->exits[k]));
+            weights.push_back(k < set->weights.size() ? set->weights[k] : 1.0);
+        }
+    } else {
+        candidates.push_back(leaveExitOf_[static_cast<std::size_t>(j)]);
+        weights.push_back(1.0);
+    }
+    std::vector<int> openOnes;
+    std::vector<double> openWeights;
+    for (std::size_t k = 0; k < candidates.size(); ++k)
+        if (open_[static_cast<std::size_t>(candidates[k])]) {
+            openOnes.push_back(candidates[k]);
+            openWeights.push_back(weights[k]);
+        }
+    if (openOnes.empty() && !set) {
+        // A journey's only exit is closed: any open exit of the venue will do.
+        for (std::size_t k = 0; k < targets_.size() && k < venue.targets.size(); ++k)
+            if (targets_[k].exit && open_[k]) {
+                openOnes.push_back(static_cast<int>(k));
+                openWeights.push_back(1.0);
+            }
+    }
+    int& current = a.target[i];
+    if (openOnes.empty()) {
+        // Nowhere to go yet: keep heading for the exit chosen (or the first), wait for a reopening.
+        if (current < 0) current = candidates.front();
+        a.navDir[i] = directionTo(current, a.pos[i], a.navDistance[i]);
+        return;
+    }
+    const bool currentOpen = current >= 0 && open_[static_cast<std::size_t>(current)] &&
+                             std::find(openOnes.begin(), openOnes.end(), current) != openOnes.end();
+    const Vec2 p = a.pos[i];
+    auto nearest = [&] {
+        int best = openOnes.front();
+        double bestD = kInf;
+        for (int e : openOnes) {
+            const double d = distanceTo(e, p);
+            if (d < bestD) {
+                bestD = d;
+                best = e;
+            }
+        }
+        return best;
+    };
+    const ExitChoice rule = set ? set->choice : ExitChoice::Nearest;
+    int chosen = current;
+    switch (rule) {
+        case ExitChoice::Nearest: chosen = nearest(); break;
+        case ExitChoice::Fixed: {
+            const int f = venue.targetIndex(set->fixed);
+            chosen = open_[static_cast<std::size_t>(f)] ? f : nearest();
+            break;
+        }
+        case ExitChoice::Weighted: {
+            // Drawn once; drawn again (among the open exits) only when the chosen exit closes.
+            if (currentOpen) break;
+            double sum = 0;
+            for (double w : openWeights) sum += w;
+            Rng rng(seed, static_cast<std::uint64_t>(a.id[i]), kStreamExitChoice, nextEvent_);
+            double u = rng.uniform() * sum;
+            chosen = openOnes.back();
+            for (std::size_t k = 0; k < openOnes.size(); ++k) {
+                if (u < openWeights[k]) {
+                    chosen = openOnes[k];
+                    break;
+                }
+                u -= openWeights[k];
+            }
+            break;
+        }
+        case ExitChoice::Quickest: {
+            // Walking time plus the wait behind the people heading there and nearer to it:
+            //   cost_e = d_e / v + n_e / (q_s · w_e).
+            const double v = std::max(kMinChoiceSpeed, a.prefSpeed[i]);
+            auto cost = [&](int e) {
+                const double d = distanceTo(e, p);
+                // Strictly nearer people only: the agent itself (at distance d) is not counted.
+                // (Before the first update, at activation, nobody is counted yet.)
+                double ahead = 0;
+                if (static_cast<std::size_t>(e) < queues_.size()) {
+                    const std::vector<double>& q = queues_[static_cast<std::size_t>(e)];
+                    ahead = static_cast<double>(std::lower_bound(q.begin(), q.end(), d) - q.begin());
+                }
+                const double w = std::max(0.1, targets_[static_cast<std::size_t>(e)].width);
+                return d / v + ahead / (set->flowCapacity * w);
+            };
+            int best = openOnes.front();
+            double bestC = kInf;
+            for (int e : openOnes) {
+                const double c = cost(e);
+                if (c < bestC) {
+                    bestC = c;
+                    best = e;
+                }
+            }
+            if (!currentOpen || bestC < (1.0 - set->hysteresis) * cost(current)) chosen = best;
+            if (t + 1e-9 >= a.nextChoice[i]) a.nextChoice[i] = t + set->interval;
+            break;
+        }
+    }
+    if (chosen < 0) chosen = nearest();
+    current = chosen;
+    a.navDir[i] = directionTo(current, a.pos[i], a.navDistance[i]);
+}
+
+void Navigation::update(AgentStore& a, double t, std::uint64_t seed) {
+    const VenueSpec& venue = spec_.venue;
+    const std::size_t n = a.size();
+    // 1. Exits open and close; everyone leaving re-evaluates (a weighted choice only if its exit closed).
+    bool changed = false;
+    while (nextEvent_ < eventOrder_.size() &&
+           venue.exitEvents[static_cast<std::size_t>(eventOrder_[nextEvent_])].time <= t + 1e-9) {
+        const ExitEventSpec& e = venue.exitEvents[static_cast<std::size_t>(eventOrder_[nextEvent_])];
+        open_[static_cast<std::size_t>(venue.targetIndex(e.exit))] = e.open ? 1 : 0;
+        ++nextEvent_;
+        changed = true;
+    }
+
+    // 2. Directions and remaining distances (each agent its own slot).
+#pragma omp parallel for schedule(static) if (parallelCheapLoop(n))
+    for (std::ptrdiff_t ii = 0; ii < static_cast<std::ptrdiff_t>(n); ++ii) {
+        const std::size_t i = static_cast<std::size_t>(ii);
+        if (a.target[i] >= 0) a.navDir[i] = directionTo(a.target[i], a.pos[i], a.navDistance[i]);
+    }
+
+    // Per exit: the remaining distances of the people heading there, sorted (quickest rule).
+    queues_.assign(targets_.size(), {});
+    for (std::size_t i = 0; i < n; ++i)
+        if (a.journey[i] >= 0 && leaving(a, i) && a.target[i] >= 0)
+            queues_[static_cast<std::size_t>(a.target[i])].push_back(a.navDistance[i]);
+    for (auto& q : queues_) std::sort(q.begin(), q.end());
+
+    // 3. Dwell ends, arrivals, exit choices (serial, in agent order, on the state of 2).
+    for (std::size_t i = 0; i < n; ++i) {
+        const int j = a.journey[i];
+        if (j < 0) continue;
+        const JourneySpec& js = venue.journeys[static_cast<std::size_t>(j)];
+        const std::size_t stages = js.waypoints.size();
+        const std::size_t s = static_cast<std::size_t>(a.stage[i]);
+        if (s < stages) {
+            const WaypointSpec& w = js.waypoints[s];
+            Target& target = targets_[static_cast<std::size_t>(a.target[i])];
+            if (a.navFlags[i] & kInService) {
+                if (t + 1e-9 >= a.holdUntil[i]) {
+                    for (auto it = services_.rbegin(); it != services_.rend(); ++it)
+                        if (it->id == a.id[i] && it->end < 0) {
+                            it->end = t;
+                            break;
+                        }
+                    a.navFlags[i] = 0;
+                    advance(a, i, t, seed);
+                }
+                continue;
+            }
+            const bool inside = target.shape.kind == TargetShape::Kind::Point
+                                    ? (a.pos[i] - target.shape.point).norm() <= std::max(target.shape.radius, a.goalRadius[i])
+                                    : target.shape.contains(a.pos[i]);
+            if (!inside) continue;
+            if (target.capacity > 0 && !(a.navFlags[i] & kAdmitted)) continue;  // waits to be admitted
+            if (w.dwell > 0 || target.capacity > 0) {
+                a.navFlags[i] = static_cast<unsigned char>(a.navFlags[i] | kInService);
+                a.holdUntil[i] = std::max(a.holdUntil[i], t + w.dwell);
+                services_.push_back(Service{a.id[i], j, static_cast<int>(s), t, -1.0});
+                if (w.dwell <= 0) {  // a capacity without dwell: through one at a time, no stop
+                    services_.back().end = t;
+                    a.navFlags[i] = 0;
+                    advance(a, i, t, seed);
+                }
+            } else {
+                advance(a, i, t, seed);
+            }
+        } else if (!js.leaveBy.empty() && (changed || (exitSetOf_[static_cast<std::size_t>(j)] >= 0 &&
+                                                       venue.exitSets[static_cast<std::size_t>(exitSetOf_[static_cast<std::size_t>(j)])].choice ==
+                                                           ExitChoice::Quickest &&
+                                                       t + 1e-9 >= a.nextChoice[i]))) {
+            chooseExit(a, i, t, seed);
+        }
+    }
+
+    // Checkpoints with a capacity admit their free places to the nearest waiting people.
+    for (std::size_t k = 0; k < venue.targets.size(); ++k) {
+        const int cap = targets_[k].capacity;
+        if (cap <= 0) continue;
+        int used = 0;
+        std::vector<std::size_t> waiting;
+        for (std::size_t i = 0; i < n; ++i) {
+            if (a.target[i] != static_cast<int>(k) || a.journey[i] < 0 || leaving(a, i)) continue;
+            if (a.navFlags[i] & (kAdmitted | kInService)) ++used;
+            else waiting.push_back(i);
+        }
+        std::sort(waiting.begin(), waiting.end(), [&](std::size_t x, std::size_t y) {
+            return a.navDistance[x] != a.navDistance[y] ? a.navDistance[x] < a.navDistance[y] : a.id[x] < a.id[y];
+        });
+        for (std::size_t m = 0; m < waiting.size() && used < cap; ++m, ++used)
+            a.navFlags[waiting[m]] = static_cast<unsigned char>(a.navFlags[waiting[m]] | kAdmitted);
+    }
+}
+
+bool Navigation::leaving(const AgentStore& a, std::size_t i) const {
+    const int j = a.journey[i];
+    return j >= 0 && static_cast<std::size_t>(a.stage[i]) >= spec_.venue.journeys[static_cast<std::size_t>(j)].waypoints.size();
+}
+
+void Navigation::advance(AgentStore& a, std::size_t i, double t, std::uint64_t seed) {
+    const JourneySpec& js = spec_.venue.journeys[static_cast<std::size_t>(a.journey[i])];
+    const std::size_t next = static_cast<std::size_t>(a.stage[i]) + 1;
+    if (next < js.waypoints.size()) {
+        a.stage[i] = static_cast<int>(next);
+        a.target[i] = spec_.venue.targetIndex(js.waypoints[next].target);
+        a.navDir[i] = directionTo(a.target[i], a.pos[i], a.navDistance[i]);
+    } else if (!js.leaveBy.empty()) {
+        a.stage[i] = static_cast<int>(next);
+        a.target[i] = -1;
+        chooseExit(a, i, t, seed);
+    } else {
+        // No exit: the agent stays at its last waypoint (stage stays there, in place, done).
+        a.navFlags[i] = static_cast<unsigned char>(a.navFlags[i] | kDone);
+    }
+}
+
+Vec2 Navigation::preferred(const AgentStore& a, std::size_t i, double t) const {
+    if (t + 1e-9 < a.holdUntil[i] || (a.navFlags[i] & (kInService | kDone))) return Vec2(0, 0);
+    if (a.target[i] < 0) {
+        // UMANS: straight at the goal, zero inside the goal radius.
+        return a.atGoal(i) ? Vec2(0, 0) : Vec2(normalisedOrZero(a.goal[i] - a.pos[i]) * a.prefSpeed[i]);
+    }
+    if (a.journey[i] < 0) {
+        // A plain goal along its path: UMANS' arrival rule.
+        if (a.atGoal(i)) return Vec2(0, 0);
+        if (a.navDistance[i] <= a.goalRadius[i] + 2 * (grid_ ? grid_->cellSize() : 0))
+            return normalisedOrZero(a.goal[i] - a.pos[i]) * a.prefSpeed[i];
+        return a.navDir[i] * a.prefSpeed[i];
+    }
+    const Target& target = targets_[static_cast<std::size_t>(a.target[i])];
+    if (!leaving(a, i) && target.capacity > 0 && !(a.navFlags[i] & kAdmitted) && a.navDistance[i] <= kQueueDistance)
+        return Vec2(0, 0);  // waits in front of a full checkpoint
+    return a.navDir[i] * a.prefSpeed[i];
+}
+
+int Navigation::leaves(const AgentStore& a, std::size_t i) const {
+    if (a.journey[i] < 0 || !leaving(a, i)) return -1;
+    const JourneySpec& js = spec_.venue.journeys[static_cast<std::size_t>(a.journey[i])];
+    if (js.leaveBy.empty()) return -1;
+    // Any open exit the agent may leave by, not only the one it aimed for.
+    auto through = [&](int e) {
+        return e >= 0 && open_[static_cast<std::size_t>(e)] && targets_[static_cast<std::size_t>(e)].shape.contains(a.pos[i]);
+    };
+    if (through(a.target[i])) return a.target[i];
+    const int setIndex = exitSetOf_[static_cast<std::size_t>(a.journey[i])];
+    if (setIndex >= 0)
+        for (const std::string& name : spec_.venue.exitSets[static_cast<std::size_t>(setIndex)].exits)
+            if (const int e = spec_.venue.targetIndex(name); through(e)) return e;
+    return -1;
+}
+
+}  // namespace ch
