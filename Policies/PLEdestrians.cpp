@@ -53,6 +53,9 @@ double PLEdestrians::timeToFirstCollision(const Vec2& v, const AgentQuery& q, co
 
 Vec2 PLEdestrians::goalOffset(const AgentQuery& q, const StepContext& ctx) const {
     const AgentStore& A = ctx.agents;
+    // With global navigation (or a journey) the goal lies along the path: the path's direction
+    // times the distance left on it (crowdhealth/navigation/navigation.h).
+    if (A.target[q.i] >= 0 && A.navDistance[q.i] >= 0) return A.navDir[q.i] * A.navDistance[q.i];
     return A.hasGoal[q.i] ? Vec2(A.goal[q.i] - q.position) : Vec2(0, 0);
 }
 
