@@ -174,10 +174,10 @@ BOOST_AUTO_TEST_CASE(thin_diagonal_wall_is_not_leaked_through) {
 
 namespace {
 
-/// Walks from `start` along direction() in small Euler steps; checks every position stays on
-/// walkable cells and at least `keep` from each of `corners`. Returns true when the target is reached.
+/// Walks from p along direction() in Euler steps of 2 cm; checks every position stays on walkable
+/// cells and sets `closest` to the least distance to any of `corners`. True when the target is reached.
 bool walk(const DistanceField& field, const TargetShape& target, Vec2 p, const std::vector<Vec2>& corners,
-          double keep, double& closest) {
+          double& closest) {
     const double step = 0.02;
     closest = kInf;
     for (int k = 0; k < 20000; ++k) {
@@ -218,7 +218,7 @@ BOOST_AUTO_TEST_CASE(walking_down_the_gradient_rounds_corners_with_clearance) {
         const TargetShape target = pointTarget(s.goal, 0.3);
         const DistanceField field(grid, target);
         double closest = kInf;
-        BOOST_TEST(walk(field, target, s.start, s.corners, 0.5 * clearance, closest),
+        BOOST_TEST(walk(field, target, s.start, s.corners, closest),
                    "start " << s.start.x() << "," << s.start.y());
         BOOST_TEST(closest >= 0.5 * clearance, "start " << s.start.x() << "," << s.start.y() << ": came within "
                                                         << closest << " m of the corner");
