@@ -1,11 +1,24 @@
 // CrowdHealth — the walkable grid and geodesic distance fields (fast marching). See
 // crowdhealth/navigation/field.h for the model.
 //
-// Measured accuracy (clearance 0, Tests/navigation_field_test.cpp; error = T − exact shortest path
-// length, at the points the test checks):
-//   ACCURACY_TABLE
+// Measured accuracy (clearance 0; Tests/navigation_field_test.cpp prints these with
+// --log_level=message). Largest |T − exact shortest path length| over the checked points, at cell
+// size h = 0.1 / 0.2 / 0.4 m:
+//   free space, point source, 10–50 m in 9 directions:  0.025 / 0.065 / 0.16 m (0.25–0.4 cell)
+//   round a 4 m square pillar (paths touching corners):   0.26  / 0.54  / 1.06 m (2.6–2.7 cells)
+//   L corridor 4 m wide, round the inner corner:          0.22  / 0.45  / 0.89 m (2.2 cells)
+//   U-turn round the end of a thin wall (turn 147°):      0.35  / 0.70  / 1.35 m (3.4–3.5 cells)
+// The free-space error comes from the first cells round the source and does not grow with the
+// distance (first order alone: 0.19 / 0.34 / 0.59 m, growing with it). Round walls the error is
+// about 1.3 cells per radian the path turns, at every cell size: it is geometric — at clearance 0
+// the walkable cell centres nearest a wall lie 0.7–1.5 cells from it (blocked: within half a cell
+// diagonal), so paths go round obstacles inflated by about a cell. Relative error ≤ 1 % + 4 cells
+// in every case checked; T is never below the exact length by more than the free-space error.
 //
-// Cost: ~PERF_NOTE
+// Cost (crowdhealth-bench --only navigation; 200 m × 200 m venue, ~100 wall segments, h = 0.2 m,
+// 1M cells, one thread, this machine): grid 21 ms, 10 fields 1.93 s (0.19 s each, ~190 ns per
+// cell), direction() + distance() ~0.57 µs per query. Memory: 9 bytes per cell for the grid,
+// 4 per cell per field (+ 1 per cell and the heap while marching).
 #include "crowdhealth/navigation/field.h"
 
 #include "crowdhealth/core/world.h"
