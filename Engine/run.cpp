@@ -109,8 +109,12 @@ int runScenario(const Options& o) {
                   << "  wall time       " << formatDuration(info.wallTimeSeconds) << " ("
                   << ch::formatNumber(info.wallTimeSeconds, 3) << " s, " << plural(threads, "thread") << ")\n"
                   << "  agents          " << sim->totalAgents() << " total, " << sim->evacuations().size()
-                  << " evacuated, " << sim->leftWorld() << " left the world, " << remaining << " remaining\n"
-                  << "  output          " << outDir.string() << "\n";
+                  << " evacuated, " << sim->leftWorld() << " left the world, " << remaining << " remaining\n";
+        if (const ch::Navigation* nav = sim->navigation(); nav != nullptr && nav->grid() != nullptr)
+            std::cout << "  navigation      " << plural(nav->fieldCount(), "path field") << " on " << nav->grid()->nx() << " x "
+                      << nav->grid()->ny() << " cells of " << ch::formatNumber(nav->grid()->cellSize()) << " m, prepared in "
+                      << ch::formatNumber(nav->preparationSeconds(), 3) << " s\n";
+        std::cout << "  output          " << outDir.string() << "\n";
         std::cout << ch::verdictText(outcome.verdict);  // the safety verdict (summary.json "verdict")
     }
     if (o.plot && info.interrupted)

@@ -137,6 +137,49 @@ ScenarioSpec socialForces(std::size_t n, std::uint64_t seed = 1) {
     return s;
 }
 
+/// A hall 220 m × 120 m with a grid of 1 m pillars and two 2 m exits in its east wall; n agents at
+/// 1 P/m² from x = 10 m, each walking to the nearer exit (a plain goal, removed there). With
+/// `navigation` the world has <Navigation/> (two fields: one per exit) and the goals are reached
+/// round the pillars; without it they walk straight (UMANS). The difference is what navigation
+/// adds to a step.
+ScenarioSpec socialForcesHall(std::size_t n, bool navigation, std::uint64_t seed = 1) {
+    ScenarioSpec s;
+    s.sourceFile = navigation ? "<bench:social-forces-hall-nav>" : "<bench:social-forces-hall>";
+    s.deltaTime = 0.1;
+    s.endTime = -1;
+    s.seed = seed;
+    s.world.type = WorldType::Planar;
+    s.world.xmin = -1, s.world.xmax = 221, s.world.ymin = -1, s.world.ymax = 121;
+    s.policies.push_back(policy(0, OptimisationMethod::Gradient,
+                                {component("SocialForcesAvoidance", {{"range", 5}}), component("GoalReachingForce")},
+                                0.5, {}, StepTiming::Coarse, 62.5));
+    auto wall = [&](double x0, double y0, double x1, double y1) {
+        ObstacleSpec o;
+        o.points = {Vec2(x0, y0), Vec2(x1, y1)};
+        s.obstacles.push_back(std::move(o));
+    };
+    wall(0, 0, 220, 0), wall(0, 120, 220, 120), wall(0, 0, 0, 120);
+    wall(220, 0, 220, 29), wall(220, 31, 220, 89), wall(220, 91, 220, 120);  // exits at y 29–31 and 89–91
+    for (double x = 125; x < 215; x += 10)
+        for (double y = 5; y < 120; y += 10) s.obstacles.push_back(box(x, y, x + 1, y + 1));
+    if (navigation) s.venue.navigation = NavigationSpec{};
+    const std::size_t perRow = static_cast<std::size_t>(std::ceil(std::sqrt(static_cast<double>(n))));
+    std::mt19937_64 rng(seed);
+    std::uniform_real_distribution<double> jitter(-0.1, 0.1);
+    for (std::size_t k = 0; k < n; ++k) {
+        AgentSpec a;
+        a.id = static_cast<AgentId>(k);
+        const double y = 10 + (100.0 / static_cast<double>(perRow)) * static_cast<double>(k / perRow);
+        a.position = Vec2(10 + static_cast<double>(k % perRow) + jitter(rng), y + jitter(rng));
+        a.goal = Vec2(221, y < 60 ? 30 : 90);
+        a.goalRadius = 1.5;
+        a.removeAtGoal = true;
+        a.radius = 0.24;
+        s.agents.push_back(std::move(a));
+    }
+    return s;
+}
+
 // ---------------------------------------------------------------------------------------------
 // Measurement helpers
 
@@ -274,7 +317,8 @@ Result runSimCase(const Case& c) {
     r.n = static_cast<double>(c.n);
     r.threads = c.threads;
     const bool dense = c.kind.rfind("dense-sph", 0) == 0;
-    ScenarioSpec spec = dense ? denseSph(c.n) : socialForces(c.n);
+    const bool hall = c.kind.rfind("sf-hall", 0) == 0;
+    ScenarioSpec spec = dense ? denseSph(c.n) : hall ? socialForcesHall(c.n, c.kind == "sf-hall-nav") : socialForces(c.n);
     if (c.kind.find("shuffled") != std::string::npos) {
         // Agents listed in random order (as after much mixing): neighbours far apart in memory.
         std::mt19937_64 rng(7);
@@ -581,7 +625,7 @@ void usage() {
                  "  --large         also the 1M-agent dense SPH crowd\n"
                  "  --threads LIST  thread counts, comma separated (default 1,2)\n"
                  "  --steps N       timed steps per case (default: by size)\n"
-                 "  --only TEXT     run only cases whose name contains TEXT (dense, order, social, neigh, navigation, output)\n"
+                 "  --only TEXT     run only cases whose name contains TEXT (dense, order, social, hall, neigh, navigation, output)\n"
                  "  --csv FILE      also write every row as CSV\n"
                  "  --no-fork       run cases in this process (peak memory then accumulates)\n";
 }
@@ -689,6 +733,14 @@ int main(int argc, char** argv) {
             stepsFor(10000, c.warmup, c.steps);
             report(inChild([&] { return runSimCase(c); }, fork));
         }
+    if (wanted("social") || wanted("hall"))
+        // Navigation's share of a step: the same hall with and without <Navigation/>.
+        for (const char* kind : {"sf-hall", "sf-hall-nav"})
+            for (int t : threads) {
+                Case c{kind, 10000, t, 0, 0};
+                stepsFor(10000, c.warmup, c.steps);
+                report(inChild([&] { return runSimCase(c); }, fork));
+            }
     if (wanted("neigh"))
         for (std::size_t n : sizes)
             for (double radius : {1.0, 5.0}) {

@@ -33,6 +33,11 @@ namespace ch {
 namespace {
 
 constexpr float kFInf = std::numeric_limits<float>::infinity();
+/// A cell whose centre lies farther than this many cells from every wall has a 4 × 4 block of
+/// walkable cells round any point in it (every cell of the block is within 2√2 cells of the
+/// centre, so more than 3.6 − 2.83 > √2/2 cells from any wall, and a wall would have to be crossed
+/// to reach an obstacle's inside): DistanceField::sample takes its short way there.
+constexpr double kOpenFloorCells = 3.6;
 
 }  // namespace
 
@@ -106,7 +111,8 @@ WalkableGrid::WalkableGrid(const World& world, const WalkableGridSettings& setti
     const double fmin = std::clamp(settings_.minSpeed, 1e-3, 1.0);
     const double blockRadius = h_ * std::sqrt(0.5);  // half a cell diagonal
     // Wall distances are only needed up to the clearance (for f) and the blocking radius: capped.
-    const double cap = 2.0 * clearance + 2.0 * h_;
+    // At least kOpenFloorCells + 1 cells: DistanceField::sample's open-floor test reads it.
+    const double cap = std::max(2.0 * clearance + 2.0 * h_, (kOpenFloorCells + 1.0) * h_);
     wallDistance_.assign(n, static_cast<float>(cap));
 
     // Each segment visits only the cells within `cap` of it: per row of cells, the x-range of the
@@ -502,6 +508,40 @@ Vec2 DistanceField::keepOffWalls(const Vec2& p, int ix, int iy, const Vec2& dir)
         if (!enters(d, cx, cy)) return d;
     }
     return steepestNeighbour(p, ix, iy);
+}
+
+Vec2 DistanceField::sample(const Vec2& p, double& dist) const {
+    if (grid_ != nullptr && seeded_) {
+        const WalkableGrid& g = *grid_;
+        int cx, cy;
+        g.cellOf(p, cx, cy);
+        const double h = g.cellSize();
+        if (g.inGrid(cx, cy) && g.walkable(cx, cy) && g.wallDistance(cx, cy) > kOpenFloorCells * h &&
+            std::isfinite(value(cx, cy))) {
+            // Open floor: the 4 × 4 block round p is walkable and in p's region (so reached), and
+            // the general rules reduce to bilinear T and bilinearly blended central differences.
+            const double fx = (p.x() - g.origin().x()) / h - 0.5, fy = (p.y() - g.origin().y()) / h - 0.5;
+            const int i0 = static_cast<int>(std::floor(fx)), j0 = static_cast<int>(std::floor(fy));
+            const double tx = fx - i0, ty = fy - j0;
+            const std::size_t nx = static_cast<std::size_t>(g.nx());
+            const float* row = &value_[static_cast<std::size_t>(g.index(i0 - 1, j0 - 1))];
+            double t[4][4];  // t[row][column] for cells (i0 − 1 … i0 + 2, j0 − 1 … j0 + 2)
+            for (int r = 0; r < 4; ++r, row += nx)
+                for (int c = 0; c < 4; ++c) t[r][c] = row[c];
+            const double w00 = (1 - tx) * (1 - ty), w10 = tx * (1 - ty), w01 = (1 - tx) * ty, w11 = tx * ty;
+            dist = w00 * t[1][1] + w10 * t[1][2] + w01 * t[2][1] + w11 * t[2][2];
+            if (dist >= 2.0 * h) {
+                auto gx = [&](int r, int c) { return t[r][c + 1] - t[r][c - 1]; };
+                auto gy = [&](int r, int c) { return t[r + 1][c] - t[r - 1][c]; };
+                const Vec2 grad(w00 * gx(1, 1) + w10 * gx(1, 2) + w01 * gx(2, 1) + w11 * gx(2, 2),
+                                w00 * gy(1, 1) + w10 * gy(1, 2) + w01 * gy(2, 1) + w11 * gy(2, 2));
+                const Vec2 dir = normalisedOrZero(-grad);
+                if (!dir.isZero()) return dir;
+            }
+        }
+    }
+    dist = distance(p);
+    return direction(p);
 }
 
 Vec2 DistanceField::direction(const Vec2& p) const {

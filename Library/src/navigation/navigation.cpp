@@ -145,9 +145,8 @@ int Navigation::goalTarget(const Vec2& goal) const {
 Vec2 Navigation::directionTo(int target, const Vec2& p, double& distance) const {
     const Target& t = targets_[static_cast<std::size_t>(target)];
     if (!fields_.empty()) {
-        const DistanceField& f = fields_[static_cast<std::size_t>(target)];
-        distance = f.distance(p);
-        if (std::isfinite(distance)) return f.direction(p);
+        const Vec2 dir = fields_[static_cast<std::size_t>(target)].sample(p, distance);
+        if (std::isfinite(distance)) return dir;
     }
     // No field (or p off the grid): straight at the nearest point of the target.
     const Vec2 c = t.shape.closest(p);

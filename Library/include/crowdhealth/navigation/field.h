@@ -117,6 +117,10 @@ public:
     /// Unit vector along −∇T at p: the direction of the shortest path (zero inside the target or
     /// where no direction is defined). Never points into a blocked cell from a walkable one.
     Vec2 direction(const Vec2& p) const;
+    /// direction(p), with distance(p) in `dist`: what an agent needs every step, in one call. On
+    /// open floor (no wall within a few cells) it reads the 4 × 4 cells round p once instead of
+    /// applying the rules near walls (the same values up to rounding).
+    Vec2 sample(const Vec2& p, double& dist) const;
     /// T at a cell centre (+inf: blocked or unreachable).
     float value(int ix, int iy) const { return value_[static_cast<std::size_t>(grid_->index(ix, iy))]; }
     /// True when at least one cell was seeded (the target touches walkable floor).
