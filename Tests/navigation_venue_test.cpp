@@ -488,3 +488,18 @@ BOOST_AUTO_TEST_CASE(other_venue_mistakes_are_errors_at_their_lines) {
                                      agentsAt({Vec2(5, 5)}, "out")),
                 "<Exit id=\"south\" x=", "duplicate target name 'south'");
 }
+
+BOOST_AUTO_TEST_CASE(a_grid_or_a_source_too_large_for_the_machine_is_an_error_before_anything_is_built) {
+    // 2 km × 2 km at 1 cm: 4e10 cells, far beyond any machine's memory.
+    std::string world = "<World type=\"Planar\" xmin=\"-1000\" xmax=\"1000\" ymin=\"-1000\" ymax=\"1000\">\n"
+                        "<Navigation cell_size=\"0.01\"/>\n<Exit id=\"e\" x=\"5\" y=\"5\"/>\n"
+                        "<Journey id=\"j\" leave_by=\"e\"/>\n</World>\n";
+    expectError("huge.xml", simulation(world, agentsAt({Vec2(1, 1)}, "j")), "<Navigation", "give a larger cell_size");
+    // A source of a million persons per second for a day.
+    std::string small = "<World type=\"Planar\" xmin=\"0\" xmax=\"10\" ymin=\"0\" ymax=\"10\">\n"
+                        "<Exit id=\"e\" x=\"5\" y=\"5\"/>\n<Journey id=\"j\" leave_by=\"e\"/>\n</World>\n";
+    expectError("flood.xml",
+                simulation(small, "<Source xmin=\"1\" xmax=\"2\" ymin=\"1\" ymax=\"2\" rate=\"1000000\" end=\"86400\" journey=\"j\">"
+                                  "<Policy id=\"0\"/></Source>\n"),
+                "<Source", "more than 1e+07 agents");
+}

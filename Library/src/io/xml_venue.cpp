@@ -2,6 +2,7 @@
 // <ExitSet>, <Journey> in <World>; <Source> in <Agents>; <CloseExit>/<OpenExit> in <Schedule>;
 // and the checks that need all of them (names, reachability), then the expansion of sources.
 #include "crowdhealth/core/world.h"
+#include "crowdhealth/io/output.h"
 #include "crowdhealth/navigation/field.h"
 
 #include "xml_internal.h"
@@ -10,6 +11,8 @@
 #include <cmath>
 #include <set>
 #include <sstream>
+
+#include <unistd.h>
 
 namespace ch::xmlio {
 
@@ -536,6 +539,29 @@ void checkVenue(LoadContext& ctx) {
             lo -= Vec2(venue.navigation->margin, venue.navigation->margin);
             hi += Vec2(venue.navigation->margin, venue.navigation->margin);
         }
+        // Memory: the grid (9 bytes per cell) and one field per target and distinct goal (4 bytes
+        // per cell, and 13 more per cell while one is being built) must fit.
+        const double h = venue.navigation->grid.cellSize;
+        const double cells = std::ceil((hi.x() - lo.x()) / h) * std::ceil((hi.y() - lo.y()) / h);
+        std::set<std::pair<double, double>> goals;
+        for (const AgentSpec& a : spec.agents)
+            if (a.journey.empty() && a.goal) goals.insert({a.goal->x(), a.goal->y()});
+        for (const SourceSpec& s : venue.sources)
+            if (s.journey.empty() && s.goal) goals.insert({s.goal->x(), s.goal->y()});
+        const double fields = static_cast<double>(venue.targets.size() + goals.size());
+        const double need = cells * (9.0 + 13.0 + 4.0 * fields);
+        const long pages = ::sysconf(_SC_PHYS_PAGES), pageSize = ::sysconf(_SC_PAGE_SIZE);
+        const double have = pages > 0 && pageSize > 0 ? static_cast<double>(pages) * static_cast<double>(pageSize) : 0;
+        const std::string numbers = "the navigation grid has " + formatNumber(cells, 3) + " cells of " + formatNumber(h) +
+                                    " m and " + formatNumber(fields) + " path fields: about " +
+                                    formatNumber(need / (1 << 20), 3) + " MiB";
+        if (cells > 2e9 || (have > 0 && need > 0.8 * have)) {
+            diags.error(venue.navigation->loc, numbers + (have > 0 ? " of this machine's " + formatNumber(have / (1 << 20), 3) + " MiB" : "") +
+                                                   "; give a larger cell_size or a smaller world" +
+                                                   (goals.size() > 100 ? " (each distinct agent goal is a field: give the agents shared targets)" : ""));
+            return;
+        }
+        if (have > 0 && need > 0.4 * have) diags.warning(venue.navigation->loc, numbers + ": the run may exhaust memory");
         const WalkableGrid grid(world, venue.navigation->grid, lo, hi);
         const double search = 1.5 * grid.cellSize();
         std::vector<int> component(venue.targets.size(), -1);
@@ -616,7 +642,17 @@ void checkVenue(LoadContext& ctx) {
         if (diags.errorCount() > errorsBefore) return;
     }
 
-    // Sources become agents (positions chosen on arrival).
+    // Sources become agents (positions chosen on arrival): at most kMaxArrivals in all.
+    constexpr std::size_t kMaxArrivals = 10'000'000;
+    std::size_t arrivals = 0;
+    for (const SourceSpec& s : venue.sources) {
+        arrivals += sourceArrivals(s, kMaxArrivals + 1).size();
+        if (arrivals > kMaxArrivals) {
+            diags.error(s.loc, "Source '" + s.name + "': the sources would create more than " +
+                                   formatNumber(static_cast<double>(kMaxArrivals)) + " agents; check rate, count and end");
+            return;
+        }
+    }
     const std::size_t before = spec.agents.size();
     expandSources(spec);
     for (std::size_t k = before; k < spec.agents.size(); ++k) ctx.agentOrigins.push_back({false, spec.agents[k].loc});
