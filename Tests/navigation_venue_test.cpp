@@ -503,3 +503,31 @@ BOOST_AUTO_TEST_CASE(a_grid_or_a_source_too_large_for_the_machine_is_an_error_be
                                   "<Policy id=\"0\"/></Source>\n"),
                 "<Source", "more than 1e+07 agents");
 }
+
+BOOST_AUTO_TEST_CASE(source_arrivals_follow_a_rate_table) {
+    // 1 P/s from 0 s, none from 5 s, 2 P/s from 10 s, until 15 s: 5 + 10 arrivals.
+    SourceSpec s;
+    s.start = 0;
+    s.end = 15;
+    s.table = {{0, 1}, {5, 0}, {10, 2}};
+    const std::vector<double> t = sourceArrivals(s, 1000);
+    BOOST_REQUIRE(t.size() == 15u);
+    for (int k = 0; k < 5; ++k) BOOST_TEST(t[static_cast<std::size_t>(k)] == k, boost::test_tools::tolerance(1e-12));
+    for (int k = 0; k < 10; ++k) BOOST_TEST(t[static_cast<std::size_t>(5 + k)] == 10 + 0.5 * k, boost::test_tools::tolerance(1e-12));
+    // A count stops it early; a later start skips the first piece's arrivals before it.
+    s.count = 7;
+    BOOST_TEST(sourceArrivals(s, 1000).size() == 7u);
+    s.count = -1;
+    s.start = 3;
+    const std::vector<double> late = sourceArrivals(s, 1000);
+    BOOST_REQUIRE(late.size() == 12u);
+    BOOST_TEST(late.front() == 3.0, boost::test_tools::tolerance(1e-12));
+    // A fractional rate carries over pieces: 0.5 P/s for 3 s (1.5 persons), then 0.5 P/s again.
+    SourceSpec h;
+    h.end = 6;
+    h.table = {{0, 0.5}, {3, 0.5}};
+    const std::vector<double> half = sourceArrivals(h, 1000);
+    BOOST_REQUIRE(half.size() == 3u);
+    BOOST_TEST(half[1] == 2.0, boost::test_tools::tolerance(1e-12));
+    BOOST_TEST(half[2] == 4.0, boost::test_tools::tolerance(1e-12));
+}

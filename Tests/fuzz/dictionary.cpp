@@ -14,7 +14,8 @@ int main() {
     for (const char* e : {"Simulation", "World", "Obstacles", "Obstacle", "Point", "Box", "Policies", "Policy",
                           "Step", "costfunction", "CostFunction", "CrowdHealth", "Agents", "Agent", "pos", "goal",
                           "color", "AgentGrid", "SpawnRectangle", "Output", "Safety", "Schedule", "Ramp",
-                          "PanicEvent"}) {
+                          "PanicEvent", "Navigation", "Target", "Exit", "ExitSet", "Journey", "Waypoint", "Source",
+                          "Rate", "Draw", "CloseExit", "OpenExit"}) {
         tokens.insert("<" + std::string(e));
         tokens.insert("</" + std::string(e) + ">");
     }
@@ -25,7 +26,11 @@ int main() {
                           "DeltaTime", "StopAtGoal", "BlendField", "BlendFrom", "BlendTo", "particles", "spacing",
                           "columns", "rows", "rad_min", "rad_max", "policy", "component", "parameter", "from", "to",
                           "start", "end", "agents", "time", "radius", "strength", "trajectories",
-                          "trajectory_interval", "metrics_interval", "NrAgentsHorizontal", "NrAgentsVertical"})
+                          "trajectory_interval", "metrics_interval", "NrAgentsHorizontal", "NrAgentsVertical",
+                          "cell_size", "clearance", "min_speed", "margin", "exits", "weights", "fixed", "choice",
+                          "interval", "hysteresis", "flow_capacity", "leave_by", "target", "dwell", "capacity",
+                          "rate", "count", "journey", "premovement", "attribute", "distribution", "value", "min",
+                          "max", "mean", "sd", "exit"})
         tokens.insert(std::string(a) + "=\"");
     for (const ch::ComponentInfo* info : ch::Registry::instance().all()) {
         tokens.insert("\"" + info->name + "\"");
@@ -34,7 +39,8 @@ int main() {
     for (const ch::ParamSpec& p : ch::safetyTable()) tokens.insert(p.name + "=\"");
     for (const ch::ParamSpec& p : ch::crowdHealthTable()) tokens.insert(p.name + "=\"");
     for (const char* v : {"\"Infinite\"", "\"Toric\"", "\"Planar\"", "\"gradient\"", "\"sampling\"", "\"global\"",
-                          "\"fine\"", "\"coarse\"", "\"true\"", "\"false\"", "\"auto\"", "\"nan\"", "\"1e308\"",
+                          "\"fine\"", "\"coarse\"", "\"nearest\"", "\"quickest\"", "\"weighted\"",
+                          "\"uniform\"", "\"normal\"", "\"constant\"", "\"pref_speed\"", "\"true\"", "\"false\"", "\"auto\"", "\"nan\"", "\"1e308\"",
                           "\"-1\"", "\"0\"", "/>", "<?xml version=\"1.0\"?>", "<!--", "-->", "\n--FILE--\n",
                           "\"inc1.xml\"", "\"inc2.xml\"", "\"inc3.xml\"", "\"main.xml\""})
         tokens.insert(v);
