@@ -394,3 +394,29 @@ BOOST_AUTO_TEST_CASE(mirror_symmetric_scene_gives_a_mirror_symmetric_field) {
         BOOST_TEST(mismatches == 0);
     }
 }
+
+BOOST_AUTO_TEST_CASE(sample_agrees_with_distance_and_direction_everywhere_including_the_grid_edges) {
+    // sample() takes a short way on open floor; it must give what distance() and direction() give,
+    // anywhere: open floor, near the pillar, at the grid's edges (no walls there), off the grid.
+    const World world(WorldSpec{}, {box(8, 4, 10, 6)});
+    const WalkableGrid grid(world, settings(0.2, 0.5), Vec2(0, 0), Vec2(20, 10));
+    const DistanceField field(grid, pointTarget(Vec2(17, 5), 0.3));
+    int fast = 0;
+    for (double y = -0.3; y <= 10.3; y += 0.137)
+        for (double x = -0.3; x <= 20.3; x += 0.141) {
+            const Vec2 p(x, y);
+            double d = -1;
+            const Vec2 dir = field.sample(p, d);
+            const double expected = field.distance(p);
+            const Vec2 expectedDir = field.direction(p);
+            if (std::isfinite(expected)) BOOST_TEST(d == expected, boost::test_tools::tolerance(1e-9));
+            else BOOST_TEST(!std::isfinite(d));
+            // Equal up to rounding (the general rule adds 1e-9 to its weights; near a ridge or the
+            // target a direction amplifies such differences).
+            BOOST_TEST((dir - expectedDir).norm() < 1e-6, "at (" << x << ", " << y << ") " << dir.transpose() << " vs " << expectedDir.transpose());
+            int cx, cy;
+            grid.cellOf(p, cx, cy);
+            fast += grid.inGrid(cx, cy) && grid.walkable(cx, cy) && grid.wallDistance(cx, cy) > 3.6 * 0.2;
+        }
+    BOOST_TEST(fast > 1000);  // most of the floor takes the short way
+}

@@ -523,6 +523,10 @@ Vec2 DistanceField::sample(const Vec2& p, double& dist) const {
             const double fx = (p.x() - g.origin().x()) / h - 0.5, fy = (p.y() - g.origin().y()) / h - 0.5;
             const int i0 = static_cast<int>(std::floor(fx)), j0 = static_cast<int>(std::floor(fy));
             const double tx = fx - i0, ty = fy - j0;
+            if (i0 < 1 || j0 < 1 || i0 + 2 >= g.nx() || j0 + 2 >= g.ny()) {  // the block leaves the grid
+                dist = distance(p);
+                return direction(p);
+            }
             const std::size_t nx = static_cast<std::size_t>(g.nx());
             const float* row = &value_[static_cast<std::size_t>(g.index(i0 - 1, j0 - 1))];
             double t[4][4];  // t[row][column] for cells (i0 − 1 … i0 + 2, j0 − 1 … j0 + 2)
