@@ -577,7 +577,7 @@ BOOST_AUTO_TEST_CASE(exact_right_angle_crossing_resolves_with_umans_overlap_rule
         for (const auto& [key, value] : extra) p.steps[0].components[0].params.set(key, value);
         return run(scenario({agent(0, {-5, 0}, {5, 0}), agent(1, {0, 5}, {0, -5})}, {p}, 0.1, 40.0));
     };
-    for (const std::string& model : {"PLEdestrians", "Karamouzas"}) {
+    for (const std::string model : {"PLEdestrians", "Karamouzas"}) {
         BOOST_TEST_CONTEXT(model) {
             const RunResult r = crossing(model, {});
             BOOST_TEST_REQUIRE(r.arrival.size() == 2u, model << " did not let both arrive");
