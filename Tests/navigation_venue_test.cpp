@@ -531,3 +531,21 @@ BOOST_AUTO_TEST_CASE(source_arrivals_follow_a_rate_table) {
     BOOST_TEST(half[1] == 2.0, boost::test_tools::tolerance(1e-12));
     BOOST_TEST(half[2] == 4.0, boost::test_tools::tolerance(1e-12));
 }
+
+BOOST_AUTO_TEST_CASE(premovement_keeps_an_agent_standing_then_it_walks) {
+    // No venue at all: premovement alone (RiMEA test 5) — the agent stands 3 s, then walks.
+    const std::string xml = simulation("<World type=\"Infinite\"/>\n",
+                                       "<Agent premovement=\"3\"><pos x=\"0\" y=\"0\"/><goal x=\"10\" y=\"0\"/><Policy id=\"0\"/></Agent>\n"
+                                       "<Agent><pos x=\"0\" y=\"5\"/><goal x=\"10\" y=\"5\"/><Policy id=\"0\"/></Agent>\n",
+                                       6);
+    const Loaded l = load("premovement.xml", xml);
+    BOOST_REQUIRE_MESSAGE(l.spec, l.messages);
+    Simulation sim(*l.spec);
+    while (sim.time() < 3.0 - 1e-9) {
+        sim.stepCoarse();
+        BOOST_TEST(sim.agents().pos[0] == Vec2(0, 0));
+    }
+    BOOST_TEST(sim.agents().pos[1].x() > 2.0);  // the other one left at once
+    while (!sim.finished()) sim.stepCoarse();
+    BOOST_TEST(sim.agents().pos[0].x() > 2.0);
+}
