@@ -6,6 +6,7 @@
 #include "crowdhealth/io/diagnostics.h"
 #include "crowdhealth/core/params.h"
 #include "crowdhealth/core/types.h"
+#include "crowdhealth/measure/measurement.h"
 #include "crowdhealth/navigation/venue.h"
 
 #include <array>
@@ -242,6 +243,8 @@ struct ScenarioSpec {
     SafetyThresholds safety;                 ///< <Safety>; defaults without it
     /// Navigation, targets, exits, journeys, sources (DESIGN §8); empty: UMANS' straight goals.
     VenueSpec venue;
+    /// Measurement lines and areas (<Measurement>, crowdhealth/measure/measurement.h); empty: none.
+    MeasurementSpec measurement;
 
     double fineStep() const { return deltaTimeFine > 0 ? deltaTimeFine : deltaTime; }
     /// Number of fine steps per coarse step (validated by the loader to be a whole number).
