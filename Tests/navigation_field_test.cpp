@@ -420,3 +420,22 @@ BOOST_AUTO_TEST_CASE(sample_agrees_with_distance_and_direction_everywhere_includ
         }
     BOOST_TEST(fast > 1000);  // most of the floor takes the short way
 }
+
+BOOST_AUTO_TEST_CASE(a_target_drawn_across_a_door_leads_through_its_middle_not_past_a_post) {
+    // A wall along y = 0 with a 1.2 m door at x ∈ [4.4, 5.6]; the target is the door's rectangle
+    // (y ∈ [−0.2, 0.2]), as exits are drawn. Walking along the field from far to the side, the path
+    // enters the door at least 0.3 m from either post.
+    const World world(WorldSpec{}, {wall(Vec2(-10, 0), Vec2(4.4, 0)), wall(Vec2(5.6, 0), Vec2(20, 0))});
+    const WalkableGrid grid(world, settings(0.1, 0.5), Vec2(-10, -5), Vec2(20, 10));
+    TargetShape door;
+    door.kind = TargetShape::Kind::Polygon;
+    door.polygon = {Vec2(4.4, -0.2), Vec2(5.6, -0.2), Vec2(5.6, 0.2), Vec2(4.4, 0.2)};
+    const DistanceField field(grid, door);
+    for (const Vec2& start : {Vec2(-3, 6), Vec2(13, 6), Vec2(0, 1.5), Vec2(10, 1.5)}) {
+        Vec2 p = start;
+        for (int k = 0; k < 4000 && !door.contains(p); ++k) p += 0.01 * field.direction(p);
+        BOOST_TEST_REQUIRE(door.contains(p), "from " << start.transpose());
+        BOOST_TEST(p.x() >= 4.4 + 0.3, "from " << start.transpose() << " entered at x = " << p.x());
+        BOOST_TEST(p.x() <= 5.6 - 0.3, "from " << start.transpose() << " entered at x = " << p.x());
+    }
+}

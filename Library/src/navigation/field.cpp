@@ -293,7 +293,12 @@ DistanceField::DistanceField(const WalkableGrid& grid, const TargetShape& target
             const double d = target.distance(grid.centre(ix, iy));
             if (!(d <= seedRadius)) continue;
             const int k = grid.index(ix, iy);
-            value_[static_cast<std::size_t>(k)] = static_cast<float>(d / grid.speed(ix, iy));
+            // d/f, plus clearance·(1/f − 1): reaching the target close to a wall costs what keeping
+            // clear of it would (0 where f = 1), so a target drawn across a door funnels people to
+            // the door's middle instead of its posts.
+            const double f = grid.speed(ix, iy);
+            value_[static_cast<std::size_t>(k)] =
+                static_cast<float>(d / f + grid.settings().clearance * (1.0 / f - 1.0));
             state[static_cast<std::size_t>(k)] = Seed;
             heap.push({value_[static_cast<std::size_t>(k)], k});
             seeded_ = true;

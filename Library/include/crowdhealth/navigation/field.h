@@ -10,9 +10,11 @@
 // so f = 1 at least `clearance` from every wall and f_min at a wall (clearance 0: f = 1).
 //
 // A DistanceField is the solution T of the eikonal equation |∇T| = 1/f on the walkable cells with
-// T = (Euclidean distance to the target shape)/f on the cells next to or inside the target (centre
-// within 1.5 cells of the shape; /f keeps these seeds consistent with the cost the march charges
-// near a wall, and is the plain distance where f = 1), computed
+// T = d/f + clearance·(1/f − 1), d the Euclidean distance to the target shape, on the cells next to
+// or inside the target (centre within 1.5 cells of the shape; /f keeps these seeds consistent with
+// the cost the march charges near a wall, the second term makes reaching the target close to a
+// wall cost what keeping clear of it would — a target drawn across a door funnels people to its
+// middle — and both reduce to the plain distance where f = 1), computed
 // by fast marching (Sethian 1996; second-order upwind differences where both upwind neighbours
 // are known, first order otherwise). With clearance 0, T is the geodesic (shortest walkable path)
 // length in metres; with a clearance, T weighs the stretches closer than `clearance` to a wall by
