@@ -160,56 +160,9 @@ bool framesFromScenario(const RenderOptions& o, const ch::ScenarioSpec& spec, st
 
 
 std::optional<ch::ScenarioSpec> replaySpec(const RenderOptions& o) {
-    const fs::path dir(o.replay);
-    const fs::path summary = dir / "summary.json";
-    if (!fs::is_directory(dir) || !fs::exists(summary)) {
-        std::cerr << "crowdhealth render: error: " << dir.string()
-                  << " is not a run folder (no summary.json); give the -o folder of `crowdhealth -i … -o …`\n";
-        return std::nullopt;
-    }
-    // Through the JSON library: a broken summary.json is reported with its path and what is wrong.
-    ch::Json json;
-    try {
-        json = ch::readJsonFile(summary);
-    } catch (const ch::JsonError& e) {
-        std::cerr << "crowdhealth render: error: " << e.what() << "\n";
-        return std::nullopt;
-    }
-    const auto scenarioIt = json.is_object() ? json.find("scenario") : json.end();
-    if (scenarioIt == json.end() || !scenarioIt->is_string() || scenarioIt->get<std::string>().empty()) {
-        std::cerr << "crowdhealth render: error: " << summary.string() << " names no \"scenario\" (a string)\n";
-        return std::nullopt;
-    }
-    const fs::path named(scenarioIt->get<std::string>());
-    fs::path path = named;
-    if (named.is_relative() && !fs::exists(named)) {
-        for (const fs::path& base : {dir, dir.parent_path()})
-            if (fs::exists(base / named)) { path = base / named; break; }
-    }
-    if (!fs::exists(path)) {
-        std::cerr << "crowdhealth render: error: the run's scenario " << named.string()
-                  << " (from summary.json) does not exist here; render from the folder the run was started in\n";
-        return std::nullopt;
-    }
-    // The same seed, so generated agents get the radii they had in the run.
-    ch::LoadOptions lo;
-    if (const auto seed = json.find("seed"); seed != json.end() && !seed->is_null()) {
-        if (!seed->is_number_unsigned()) {
-            std::cerr << "crowdhealth render: error: " << summary.string()
-                      << ": \"seed\" should be a whole number from 0 to 18446744073709551615, not " << seed->dump() << "\n";
-            return std::nullopt;
-        }
-        lo.seed = seed->get<std::uint64_t>();
-    }
-    ch::Diagnostics diags;
-    std::optional<ch::ScenarioSpec> spec;
-    try {
-        spec = ch::loadScenario(path.string(), diags, lo);
-    } catch (const std::exception& e) {
-        diags.error(ch::SourceLoc{path.string(), 0}, e.what());
-    }
-    diags.print(std::cerr);
-    if (!spec || diags.hasErrors()) return std::nullopt;
+    std::string error;
+    std::optional<ch::ScenarioSpec> spec = chrender::loadRunScenario(fs::path(o.replay), error, std::cerr);
+    if (!spec) std::cerr << "crowdhealth render: error: " << error << "\n";
     return spec;
 }
 
