@@ -145,7 +145,12 @@ std::optional<ch::ScenarioSpec> loadRunScenario(const std::filesystem::path& dir
     const fs::path named(scenarioIt->get<std::string>());
     fs::path path = named;
     if (named.is_relative() && !fs::exists(named)) {
-        for (const fs::path& base : {dir, dir.parent_path()})
+        // DIR itself, then the folder holding it (a run started beside its -o folder), also
+        // when DIR is given as "." or with a trailing '/'.
+        std::error_code ec;
+        fs::path absolute = fs::weakly_canonical(fs::absolute(dir), ec);
+        if (ec) absolute = fs::absolute(dir);
+        for (const fs::path& base : {dir, absolute.parent_path()})
             if (fs::exists(base / named)) {
                 path = base / named;
                 break;
