@@ -346,6 +346,37 @@ std::string gnuplotScript(const RenderOptions& o, const ch::ScenarioSpec& spec, 
         g << "set label " << obj++ << " 'goal' at " << num(m.position.x(), 10) << "," << num(m.position.y() + r, 10)
           << " center offset 0,0.7 textcolor rgb '#b05000' front\n";
     }
+    // targets and exits of a venue: outlines with their names (exits green, targets blue; an
+    // exit drawn red and dashed, "closed", in the frames where the schedule has closed it)
+    const std::vector<chrender::VenueMark> marks = chrender::venueMarks(spec);
+    std::vector<int> markObject(marks.size(), 0);
+    auto markCommands = [&](std::size_t k, bool open) {
+        const chrender::VenueMark& m = marks[k];
+        const std::string colour = !m.exit ? "#1f5fbf" : open ? "#1a9641" : "#d7191c";
+        const std::string style = " fillstyle empty border lc rgb '" + colour + "' lw 2" + (open ? "" : " dt 2") + " front\n";
+        std::ostringstream c;
+        const int object = markObject[k];
+        if (m.point) {
+            c << "set object " << object << " circle at " << num(m.centre.x(), 10) << "," << num(m.centre.y(), 10)
+              << " size " << num(std::max(m.radius, 0.15)) << style;
+        } else {
+            c << "set object " << object << " polygon from ";
+            for (std::size_t i = 0; i <= m.outline.size(); ++i)
+                c << (i ? " to " : "") << num(m.outline[i % m.outline.size()].x(), 10) << ","
+                  << num(m.outline[i % m.outline.size()].y(), 10);
+            c << style;
+        }
+        c << "set label " << object + 1 << " " << chplot::gpString(m.name + (open ? "" : " (closed)")) << " at "
+          << num(m.centre.x(), 10) << "," << num(m.centre.y(), 10) << " center offset 0,1.1 noenhanced textcolor rgb '"
+          << colour << "' front\n";
+        return c.str();
+    };
+    for (std::size_t k = 0; k < marks.size(); ++k) {
+        if (marks[k].outline.empty() && !marks[k].point) continue;
+        markObject[k] = obj;
+        obj += 2;
+        g << markCommands(k, marks[k].openAt(frames.empty() ? 0.0 : frames.front().time));
+    }
     // scale bar
     const double len = niceLength(l.view.width());
     const double bx = l.view.xmin + 0.04 * l.view.width(), by = l.view.ymin + 0.04 * l.view.height();
@@ -392,6 +423,10 @@ std::string gnuplotScript(const RenderOptions& o, const ch::ScenarioSpec& spec, 
             heading += std::to_string(frames[k].agents.size());
             heading += " agents";
             g << "set title " << chplot::gpString(heading) << "\n";
+            // Exits that close or reopen: their state at this frame's time.
+            for (std::size_t m = 0; m < marks.size(); ++m)
+                if (markObject[m] > 0 && marks[m].exit && !marks[m].events.empty())
+                    g << markCommands(m, marks[m].openAt(frames[k].time));
             g << "plot 'render-data.txt' index " << k
               << " using 4:5:6:8 with circles lc rgb variable lw 0.5\n";
         }

@@ -97,6 +97,11 @@ Box sceneBounds(const ch::ScenarioSpec& spec) {
         add(a.position);
         if (a.goal) add(*a.goal);
     }
+    for (const ch::TargetSpec& t : spec.venue.targets) {  // targets and exits of a venue
+        const auto b = t.shape.bounds();
+        add(b.first);
+        add(b.second);
+    }
     if (spec.world.type == ch::WorldType::Planar) {
         add({spec.world.xmin, spec.world.ymin});
         add({spec.world.xmax, spec.world.ymax});

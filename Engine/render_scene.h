@@ -65,8 +65,8 @@ struct Box {
     double width() const { return xmax - xmin; }
     double height() const { return ymax - ymin; }
 };
-/// What a scene covers: every obstacle vertex, every agent's start and goal (and a planar world's
-/// bounds), plus a margin of 1 m.
+/// What a scene covers: every obstacle vertex, every agent's start and goal, every target and
+/// exit of a venue (and a planar world's bounds), plus a margin of 1 m.
 Box sceneBounds(const ch::ScenarioSpec& spec);
 
 /// The goals of the scenario's agents, each once (m), with the largest goal radius used there.
