@@ -2,6 +2,7 @@
 #include "plot.h"
 
 #include "output_folder.h"
+#include "plot_paths.h"
 
 #include "exit_codes.h"
 
@@ -373,6 +374,7 @@ void drawExperiment(const Experiment& e, std::vector<fs::path>& written, std::ve
             draw(job, pngTerminal(1700, 850), "heatmap.png");
         }
     }
+    drawPaths(e, written, errors, notes);  // paths.png
 }
 
 }  // namespace chplot
@@ -453,7 +455,12 @@ int plotCommand(int argc, char* argv[]) {
                      "  health.png    largest contact acceleration, injured, mean panic, crowd pressure\n"
                      "  schedule.png  the ramped parameters, when the scenario has a <Schedule>\n"
                      "  heatmap.png   where high density and crush happened (from heatmap.csv)\n"
-                     "The same as the --plot option of a run. See docs/crowd-health.md, \"Plots\".\n\n"
+                     "  paths.png     every agent's path (from the run's trajectories: trajectories.bin,\n"
+                     "                .txt or output_<id>.csv), coloured by the exit it left by (grey:\n"
+                     "                none), over the walls, targets and exits of its scenario (named in\n"
+                     "                summary.json); of the first run that has trajectories\n"
+                     "The same as the --plot option of a run. See docs/crowd-health.md, \"Plots\", and\n"
+                     "docs/navigation.md, \"Plots\".\n\n"
                   << visible << "\nExit status: 0 success; 1 gnuplot missing or failed, or DIR not writable;\n"
                                 "2 bad command line or DIR holds no run.\n";
         return kExitOk;

@@ -8,6 +8,8 @@
 //   health.png    max contact acceleration, mean panic, injured and crowd pressure over time
 //   schedule.png  the ramped parameters (metrics.csv's extra columns), when there are any
 //   heatmap.png   where high density and crush happened (heatmap.csv), when present
+//   paths.png     every agent's path coloured by its exit, over the venue, when the run wrote
+//                 trajectories (plot_paths.h)
 // See docs/crowd-health.md, "Plots".
 #pragma once
 

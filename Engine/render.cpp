@@ -160,56 +160,9 @@ bool framesFromScenario(const RenderOptions& o, const ch::ScenarioSpec& spec, st
 
 
 std::optional<ch::ScenarioSpec> replaySpec(const RenderOptions& o) {
-    const fs::path dir(o.replay);
-    const fs::path summary = dir / "summary.json";
-    if (!fs::is_directory(dir) || !fs::exists(summary)) {
-        std::cerr << "crowdhealth render: error: " << dir.string()
-                  << " is not a run folder (no summary.json); give the -o folder of `crowdhealth -i … -o …`\n";
-        return std::nullopt;
-    }
-    // Through the JSON library: a broken summary.json is reported with its path and what is wrong.
-    ch::Json json;
-    try {
-        json = ch::readJsonFile(summary);
-    } catch (const ch::JsonError& e) {
-        std::cerr << "crowdhealth render: error: " << e.what() << "\n";
-        return std::nullopt;
-    }
-    const auto scenarioIt = json.is_object() ? json.find("scenario") : json.end();
-    if (scenarioIt == json.end() || !scenarioIt->is_string() || scenarioIt->get<std::string>().empty()) {
-        std::cerr << "crowdhealth render: error: " << summary.string() << " names no \"scenario\" (a string)\n";
-        return std::nullopt;
-    }
-    const fs::path named(scenarioIt->get<std::string>());
-    fs::path path = named;
-    if (named.is_relative() && !fs::exists(named)) {
-        for (const fs::path& base : {dir, dir.parent_path()})
-            if (fs::exists(base / named)) { path = base / named; break; }
-    }
-    if (!fs::exists(path)) {
-        std::cerr << "crowdhealth render: error: the run's scenario " << named.string()
-                  << " (from summary.json) does not exist here; render from the folder the run was started in\n";
-        return std::nullopt;
-    }
-    // The same seed, so generated agents get the radii they had in the run.
-    ch::LoadOptions lo;
-    if (const auto seed = json.find("seed"); seed != json.end() && !seed->is_null()) {
-        if (!seed->is_number_unsigned()) {
-            std::cerr << "crowdhealth render: error: " << summary.string()
-                      << ": \"seed\" should be a whole number from 0 to 18446744073709551615, not " << seed->dump() << "\n";
-            return std::nullopt;
-        }
-        lo.seed = seed->get<std::uint64_t>();
-    }
-    ch::Diagnostics diags;
-    std::optional<ch::ScenarioSpec> spec;
-    try {
-        spec = ch::loadScenario(path.string(), diags, lo);
-    } catch (const std::exception& e) {
-        diags.error(ch::SourceLoc{path.string(), 0}, e.what());
-    }
-    diags.print(std::cerr);
-    if (!spec || diags.hasErrors()) return std::nullopt;
+    std::string error;
+    std::optional<ch::ScenarioSpec> spec = chrender::loadRunScenario(fs::path(o.replay), error, std::cerr);
+    if (!spec) std::cerr << "crowdhealth render: error: " << error << "\n";
     return spec;
 }
 
@@ -393,6 +346,37 @@ std::string gnuplotScript(const RenderOptions& o, const ch::ScenarioSpec& spec, 
         g << "set label " << obj++ << " 'goal' at " << num(m.position.x(), 10) << "," << num(m.position.y() + r, 10)
           << " center offset 0,0.7 textcolor rgb '#b05000' front\n";
     }
+    // targets and exits of a venue: outlines with their names (exits green, targets blue; an
+    // exit drawn red and dashed, "closed", in the frames where the schedule has closed it)
+    const std::vector<chrender::VenueMark> marks = chrender::venueMarks(spec);
+    std::vector<int> markObject(marks.size(), 0);
+    auto markCommands = [&](std::size_t k, bool open) {
+        const chrender::VenueMark& m = marks[k];
+        const std::string colour = !m.exit ? "#1f5fbf" : open ? "#1a9641" : "#d7191c";
+        const std::string style = " fillstyle empty border lc rgb '" + colour + "' lw 2" + (open ? "" : " dt 2") + " front\n";
+        std::ostringstream c;
+        const int object = markObject[k];
+        if (m.point) {
+            c << "set object " << object << " circle at " << num(m.centre.x(), 10) << "," << num(m.centre.y(), 10)
+              << " size " << num(std::max(m.radius, 0.15)) << style;
+        } else {
+            c << "set object " << object << " polygon from ";
+            for (std::size_t i = 0; i <= m.outline.size(); ++i)
+                c << (i ? " to " : "") << num(m.outline[i % m.outline.size()].x(), 10) << ","
+                  << num(m.outline[i % m.outline.size()].y(), 10);
+            c << style;
+        }
+        c << "set label " << object + 1 << " " << chplot::gpString(m.name + (open ? "" : " (closed)")) << " at "
+          << num(m.centre.x(), 10) << "," << num(m.centre.y(), 10) << " center offset 0,1.1 noenhanced textcolor rgb '"
+          << colour << "' front\n";
+        return c.str();
+    };
+    for (std::size_t k = 0; k < marks.size(); ++k) {
+        if (marks[k].outline.empty() && !marks[k].point) continue;
+        markObject[k] = obj;
+        obj += 2;
+        g << markCommands(k, marks[k].openAt(frames.empty() ? 0.0 : frames.front().time));
+    }
     // scale bar
     const double len = niceLength(l.view.width());
     const double bx = l.view.xmin + 0.04 * l.view.width(), by = l.view.ymin + 0.04 * l.view.height();
@@ -439,6 +423,10 @@ std::string gnuplotScript(const RenderOptions& o, const ch::ScenarioSpec& spec, 
             heading += std::to_string(frames[k].agents.size());
             heading += " agents";
             g << "set title " << chplot::gpString(heading) << "\n";
+            // Exits that close or reopen: their state at this frame's time.
+            for (std::size_t m = 0; m < marks.size(); ++m)
+                if (markObject[m] > 0 && marks[m].exit && !marks[m].events.empty())
+                    g << markCommands(m, marks[m].openAt(frames[k].time));
             g << "plot 'render-data.txt' index " << k
               << " using 4:5:6:8 with circles lc rgb variable lw 0.5\n";
         }

@@ -4,6 +4,7 @@
 #include "crowdhealth/health/health.h"
 
 #include <crowdhealth/io/diagnostics.h>
+#include <crowdhealth/io/json.h>
 #include <crowdhealth/io/xml.h>
 
 #include <algorithm>
@@ -96,6 +97,11 @@ Box sceneBounds(const ch::ScenarioSpec& spec) {
         add(a.position);
         if (a.goal) add(*a.goal);
     }
+    for (const ch::TargetSpec& t : spec.venue.targets) {  // targets and exits of a venue
+        const auto b = t.shape.bounds();
+        add(b.first);
+        add(b.second);
+    }
     if (spec.world.type == ch::WorldType::Planar) {
         add({spec.world.xmin, spec.world.ymin});
         add({spec.world.xmax, spec.world.ymax});
@@ -116,6 +122,102 @@ std::vector<GoalMark> goalMarks(const ch::ScenarioSpec& spec) {
                                [&](const GoalMark& m) { return (m.position - *a.goal).norm() < 1e-9; });
         if (it == marks.end()) marks.push_back({*a.goal, r});
         else it->radius = std::max(it->radius, r);
+    }
+    return marks;
+}
+
+std::optional<ch::ScenarioSpec> loadRunScenario(const std::filesystem::path& dir, std::string& error,
+                                                std::ostream& diagnostics) {
+    namespace fs = std::filesystem;
+    const fs::path summary = dir / "summary.json";
+    if (!fs::is_directory(dir) || !fs::exists(summary)) {
+        error = dir.string() + " is not a run folder (no summary.json); give the -o folder of `crowdhealth -i … -o …`";
+        return std::nullopt;
+    }
+    // Through the JSON library: a broken summary.json is reported with its path and what is wrong.
+    ch::Json json;
+    try {
+        json = ch::readJsonFile(summary);
+    } catch (const ch::JsonError& e) {
+        error = e.what();
+        return std::nullopt;
+    }
+    const auto scenarioIt = json.is_object() ? json.find("scenario") : json.end();
+    if (scenarioIt == json.end() || !scenarioIt->is_string() || scenarioIt->get<std::string>().empty()) {
+        error = summary.string() + " names no \"scenario\" (a string)";
+        return std::nullopt;
+    }
+    const fs::path named(scenarioIt->get<std::string>());
+    fs::path path = named;
+    if (named.is_relative() && !fs::exists(named)) {
+        // DIR itself, then the folder holding it (a run started beside its -o folder), also
+        // when DIR is given as "." or with a trailing '/'.
+        std::error_code ec;
+        fs::path absolute = fs::weakly_canonical(fs::absolute(dir), ec);
+        if (ec) absolute = fs::absolute(dir);
+        for (const fs::path& base : {dir, absolute.parent_path()})
+            if (fs::exists(base / named)) {
+                path = base / named;
+                break;
+            }
+    }
+    if (!fs::exists(path)) {
+        error = "the run's scenario " + named.string() +
+                " (from summary.json) does not exist here; run from the folder the run was started in";
+        return std::nullopt;
+    }
+    // The same seed, so generated agents get the radii they had in the run.
+    ch::LoadOptions lo;
+    if (const auto seed = json.find("seed"); seed != json.end() && !seed->is_null()) {
+        if (!seed->is_number_unsigned()) {
+            error = summary.string() + ": \"seed\" should be a whole number from 0 to 18446744073709551615, not " +
+                    seed->dump();
+            return std::nullopt;
+        }
+        lo.seed = seed->get<std::uint64_t>();
+    }
+    ch::Diagnostics diags;
+    std::optional<ch::ScenarioSpec> spec;
+    try {
+        spec = ch::loadScenario(path.string(), diags, lo);
+    } catch (const std::exception& e) {
+        diags.error(ch::SourceLoc{path.string(), 0}, e.what());
+    }
+    diags.print(diagnostics);
+    if (!spec || diags.hasErrors()) {
+        error = "the run's scenario " + path.string() + " does not load";
+        return std::nullopt;
+    }
+    return spec;
+}
+
+bool VenueMark::openAt(double t) const {
+    bool open = true;
+    for (const auto& [time, opens] : events)
+        if (time <= t + 1e-9) open = opens;
+    return open;
+}
+
+std::vector<VenueMark> venueMarks(const ch::ScenarioSpec& spec) {
+    std::vector<VenueMark> marks;
+    for (const ch::TargetSpec& t : spec.venue.targets) {
+        VenueMark m;
+        m.name = t.name;
+        m.exit = t.exit;
+        m.point = t.shape.kind == ch::TargetShape::Kind::Point;
+        if (m.point) {
+            m.centre = t.shape.point;
+            m.radius = t.shape.radius;
+        } else {
+            m.outline = t.shape.polygon;
+            m.centre = t.shape.centre();
+        }
+        for (const ch::ExitEventSpec& e : spec.venue.exitEvents)
+            if (e.exit == t.name) m.events.emplace_back(e.time, e.open);
+        // Events in time order; at equal times the file order stands (as Navigation applies them).
+        std::stable_sort(m.events.begin(), m.events.end(),
+                         [](const auto& a, const auto& b) { return a.first < b.first; });
+        marks.push_back(std::move(m));
     }
     return marks;
 }

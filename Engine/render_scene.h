@@ -6,6 +6,7 @@
 #include <crowdhealth/core/scenario.h>
 #include <crowdhealth/core/simulation.h>
 
+#include <filesystem>
 #include <iosfwd>
 #include <optional>
 #include <string>
@@ -35,14 +36,37 @@ std::string colouringLabel(Colouring c);
 /// Loads a scenario; prints every diagnostic to `err` and returns nullopt on error.
 std::optional<ch::ScenarioSpec> loadForDisplay(const std::string& path, std::ostream& err);
 
+/// The scenario of a finished run (`render --replay`, `plot`'s paths.png): the file named by
+/// DIR/summary.json's "scenario" (as given, else relative to DIR or DIR's parent), loaded with
+/// the run's seed so that generated agents get the radii they had. Prints the loader's
+/// diagnostics to `diagnostics`; on failure returns nullopt with `error` set (one sentence, no
+/// program-name prefix).
+std::optional<ch::ScenarioSpec> loadRunScenario(const std::filesystem::path& dir, std::string& error,
+                                                std::ostream& diagnostics);
+
+/// The targets and exits of a scenario's venue as drawn: outline (closed polygon; a point target
+/// as a circle), name, exit or not, and the times the exit closes and reopens.
+struct VenueMark {
+    std::string name;
+    bool exit = false;
+    bool point = false;               ///< a point target: a circle of `radius` round `centre`
+    std::vector<ch::Vec2> outline;    ///< polygon vertices (not repeated at the end)
+    ch::Vec2 centre{0, 0};
+    double radius = 0;
+    std::vector<std::pair<double, bool>> events;  ///< (time s, open) in time order
+    /// Whether the exit is open at time t (s): the state set by the last event at or before t.
+    bool openAt(double t) const;
+};
+std::vector<VenueMark> venueMarks(const ch::ScenarioSpec& spec);
+
 /// An axis-aligned rectangle of the world (m).
 struct Box {
     double xmin = 0, xmax = 0, ymin = 0, ymax = 0;
     double width() const { return xmax - xmin; }
     double height() const { return ymax - ymin; }
 };
-/// What a scene covers: every obstacle vertex, every agent's start and goal (and a planar world's
-/// bounds), plus a margin of 1 m.
+/// What a scene covers: every obstacle vertex, every agent's start and goal, every target and
+/// exit of a venue (and a planar world's bounds), plus a margin of 1 m.
 Box sceneBounds(const ch::ScenarioSpec& spec);
 
 /// The goals of the scenario's agents, each once (m), with the largest goal radius used there.

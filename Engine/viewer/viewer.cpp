@@ -72,6 +72,7 @@ public:
     Viewer(std::unique_ptr<ch::Simulation> sim, const Options& o) : sim_(std::move(sim)), o_(o) {
         scene_ = chrender::sceneBounds(sim_->spec());
         goals_ = chrender::goalMarks(sim_->spec());
+        marks_ = chrender::venueMarks(sim_->spec());
         colouring_ = o.colouring;
         playing_ = !o.paused;
         prefSpeed_ = sim_->spec().agents.empty() ? 1.4 : sim_->spec().agents.front().prefSpeed;
@@ -109,6 +110,7 @@ private:
     GLFWwindow* window_ = nullptr;
     chrender::Box scene_;
     std::vector<chrender::GoalMark> goals_;
+    std::vector<chrender::VenueMark> marks_;  ///< targets and exits, in VenueSpec::targets order
     Colouring colouring_;
     bool playing_ = true;
     int speed_ = 1;
@@ -254,8 +256,40 @@ void Viewer::draw(int w, int h) {
         glEnd();
     }
 
-    // goals
+    // wall segments (obstacles of two points: no area to fill)
     glLineWidth(2);
+    glColor3d(0.35, 0.35, 0.35);
+    glBegin(GL_LINES);
+    for (const ch::ObstacleSpec& ob : sim_->spec().obstacles)
+        if (ob.points.size() == 2) {
+            glVertex2d(ob.points[0].x(), ob.points[0].y());
+            glVertex2d(ob.points[1].x(), ob.points[1].y());
+        }
+    glEnd();
+
+    // targets (blue) and exits (green; red and dashed while closed) of a venue. No text: the
+    // names are in the scenario file and in the frames of `crowdhealth render`.
+    for (std::size_t k = 0; k < marks_.size(); ++k) {
+        const chrender::VenueMark& m = marks_[k];
+        const bool open = !m.exit || sim_->navigation() == nullptr || sim_->navigation()->open(static_cast<int>(k));
+        if (!m.exit) glColor3d(0.12, 0.37, 0.75);
+        else if (open) glColor3d(0.10, 0.59, 0.25);
+        else glColor3d(0.84, 0.10, 0.11);
+        if (!open) {
+            glEnable(GL_LINE_STIPPLE);
+            glLineStipple(3, 0x3333);
+        }
+        if (m.point) {
+            ring(m.centre.x(), m.centre.y(), std::max(m.radius, 0.15));
+        } else {
+            glBegin(GL_LINE_LOOP);
+            for (const ch::Vec2& p : m.outline) glVertex2d(p.x(), p.y());
+            glEnd();
+        }
+        if (!open) glDisable(GL_LINE_STIPPLE);
+    }
+
+    // goals
     glColor3d(0.88, 0.44, 0.0);
     for (const auto& g : goals_) ring(g.position.x(), g.position.y(), std::max(g.radius, 0.15));
     glLineWidth(1);
