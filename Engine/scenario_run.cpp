@@ -1,6 +1,8 @@
 // crowdhealth — loading and running one scenario (see scenario_run.h).
 #include "scenario_run.h"
 
+#include "crowdhealth/measure/recorder.h"
+
 #include "exit_codes.h"
 #include "output_folder.h"
 
@@ -170,6 +172,11 @@ RunOutcome simulateAndWrite(ch::Simulation& sim, const RunPlan& plan, const fs::
     ch::MetricsRecorder metrics(spec.output.metricsInterval);
     ch::SafetyRecorder safety(spec.safety);  // crowd measures per cell every coarse step (heat map, verdict)
     metrics.setCrowdPressure(&safety);
+    // Measurement lines and areas, and the exits' flows (flows.csv, areas.csv, verdict reasons).
+    std::vector<double> exitWidths;
+    if (const ch::Navigation* nav = sim.navigation())
+        for (std::size_t k = 0; k < spec.venue.targets.size(); ++k) exitWidths.push_back(nav->width(static_cast<int>(k)));
+    ch::MeasurementRecorder measurement(spec, exitWidths);
     // The text and binary trajectories are streamed into their .tmp files during the run, and
     // renamed with the other outputs at its end (removed if the run fails).
     std::optional<ch::TrajectoryOutput> trajectory;
@@ -198,6 +205,7 @@ RunOutcome simulateAndWrite(ch::Simulation& sim, const RunPlan& plan, const fs::
     const auto wallStart = std::chrono::steady_clock::now();
     try {
         safety.record(sim);   // before the metrics row: it gives the crowd_pressure column
+        measurement.record(sim);
         metrics.sample(sim);  // the t = 0 row, before the first step
         if (trajectory) trajectory->record(sim);  // frame 0
         if (!probeDone) probe();
@@ -208,6 +216,7 @@ RunOutcome simulateAndWrite(ch::Simulation& sim, const RunPlan& plan, const fs::
             }
             sim.stepCoarse();
             safety.record(sim);
+            measurement.record(sim);
             metrics.maybeSample(sim);
             if (trajectory) trajectory->maybeRecord(sim);
             if (!probeDone) probe();
@@ -221,6 +230,7 @@ RunOutcome simulateAndWrite(ch::Simulation& sim, const RunPlan& plan, const fs::
             }
         }
         metrics.finish(sim);  // the row of the final time, if it is not on the interval
+        measurement.finish();
         if (trajectory) trajectory->finish(sim);  // likewise the final frame
     } catch (const std::exception& e) {
         if (hooks.afterLoop) hooks.afterLoop(sim);
@@ -231,12 +241,15 @@ RunOutcome simulateAndWrite(ch::Simulation& sim, const RunPlan& plan, const fs::
     result.info.wallTimeSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - wallStart).count();
     result.peaks = metrics.peaks();
     result.verdict = safety.verdict(sim);
+    ch::addReasons(result.verdict, measurement.reasons());
 
     // The files this run writes. The manifest lists them (with the previous run's) before the
     // first is written, so a run killed while writing leaves no file the next run would not know.
     std::vector<std::string> names = {"metrics.csv", "evacuations.csv", "health.csv", "heatmap.csv"};
     if (trajectory)
         for (std::string& n : trajectory->fileNames()) names.push_back(std::move(n));
+    if (measurement.hasFlows()) names.push_back("flows.csv");
+    if (measurement.hasAreas()) names.push_back("areas.csv");
     names.push_back("summary.json");
     OutputFolder folder(outDir);
 
@@ -247,6 +260,8 @@ RunOutcome simulateAndWrite(ch::Simulation& sim, const RunPlan& plan, const fs::
         ch::writeFileAtomic(outDir / "evacuations.csv", ch::evacuationsCsv(sim));
         ch::writeFileAtomic(outDir / "health.csv", ch::healthCsv(sim.health()));
         ch::writeFileAtomic(outDir / "heatmap.csv", safety.heatmapCsv());
+        if (measurement.hasFlows()) ch::writeFileAtomic(outDir / "flows.csv", measurement.flowsCsv());
+        if (measurement.hasAreas()) ch::writeFileAtomic(outDir / "areas.csv", measurement.areasCsv());
         if (trajectory) trajectory->commit();
         if (o.killBeforeSummary) std::raise(SIGKILL);  // tests: a kill at the worst instant
         ch::writeFileAtomic(outDir / "summary.json", ch::summaryJson(sim, result.info, result.peaks, &result.verdict));

@@ -247,7 +247,7 @@ BOOST_AUTO_TEST_CASE(sparse_free_walking_is_safe) {
     BOOST_TEST(verdictJson(v) == "{\"level\":\"safe\",\"reasons\":[]}");
     const std::string heat = run.safety.heatmapCsv();
     BOOST_TEST(heat.rfind("x,y,max_density,max_contact_accel,seconds_above_density_threshold,"
-                          "seconds_above_crush_threshold\n", 0) == 0);
+                          "seconds_above_crush_threshold,worst_los\n", 0) == 0);
     BOOST_TEST(std::count(heat.begin(), heat.end(), '\n') > 100);
 }
 

@@ -457,11 +457,13 @@ void Simulation::removeFinished() {
         if (leaves) {
             remove[i] = 1;
             evacuations_.push_back(Evacuation{agents_.id[i], t, exit});
+            removed_.push_back(Removal{agents_.id[i], t, agents_.pos[i]});
             health_.markExit(agents_, i, t);
             any = true;
         } else if (!world_.inside(agents_.pos[i])) {
             remove[i] = 1;
             ++leftWorld_;
+            removed_.push_back(Removal{agents_.id[i], t, agents_.pos[i]});
             any = true;
         }
     }

@@ -42,6 +42,11 @@ const ParamTable& safetyTable() {
                             "seconds a density or pressure condition must hold, anywhere, to count"),
             ParamSpec::real("dose_dangerous_fraction", "-", d.doseDangerousFraction, 0, 1,
                             "crush is dangerous once someone's dose reaches this share of the policy's injuryDose"),
+            ParamSpec::real("flow_capacity", "P/(m*s)", d.flowCapacity, 0, 100,
+                            "specific flow of an exit or measurement line above which (held min_duration) the "
+                            "verdict says caution (IMO/SFPE: 1.33)"),
+            ParamSpec::real("flow_window", "s", d.flowWindow, 0, 1e4,
+                            "the specific flow compared with flow_capacity counts the crossings of this many seconds"),
         };
         // Strictly positive quantities, except min_duration (0 = one step is enough) and cell_size,
         // whose lower limit 0.25 m is itself allowed (finer cells only multiply the grid's size).
@@ -50,6 +55,29 @@ const ParamTable& safetyTable() {
         return table;
     }();
     return t;
+}
+
+namespace {
+constexpr double kSquareFoot = 0.09290304;  // m²
+/// Fruin's walkway levels: the area per person (ft²) at which each of A…E begins.
+constexpr double kFruinFeet[] = {35, 25, 15, 10, 5};
+
+}  // namespace
+
+char fruinLevel(double density) {
+    if (!(density > 0)) return 'A';
+    const double feet = 1.0 / density / kSquareFoot;  // area per person, ft²
+    for (int k = 0; k < 5; ++k)
+        if (feet >= kFruinFeet[k]) return static_cast<char>('A' + k);
+    return 'F';
+}
+
+double fruinLowerDensity(char level) {
+    // Level L (B…F) begins where the area per person drops below the lower bound of the level
+    // before it.
+    const int k = level - 'B';
+    if (k < 0 || k > 4) return 0;
+    return 1.0 / (kFruinFeet[k] * kSquareFoot);
 }
 
 double CrowdField::maxDensity() const {
@@ -182,6 +210,18 @@ void SafetyRecorder::recordAt(const AgentStore& a, double t, const HealthLayer* 
     for (std::size_t k = 0; k < f.size(); ++k) {
         Cell& cell = cells_[{f.iy[k], f.ix[k]}];
         cell.maxDensity = std::max(cell.maxDensity, f.density[k]);
+        // Fruin's levels: how long each has held here without a break (a cell missed by a record
+        // — nobody within reach — starts again).
+        {
+            const bool continues = cell.losAt == previous && dt > 0;
+            const int level = fruinLevel(f.density[k]) - 'A';  // 0 = A … 5 = F
+            for (int l = 1; l <= 5; ++l) {
+                double& run = cell.losRun[l - 1];
+                run = level >= l ? (continues ? run + dt : 0.0) : 0.0;
+                if (level >= l && run >= t_.minDuration) cell.worstLos = std::max(cell.worstLos, static_cast<char>('A' + l));
+            }
+            cell.losAt = t;
+        }
         for (int l = 0; l < 3; ++l)
             if (f.density[k] > levels[l]) {
                 cell.seconds[l] += dt;
@@ -239,7 +279,8 @@ void SafetyRecorder::recordAt(const AgentStore& a, double t, const HealthLayer* 
 }
 
 std::string SafetyRecorder::heatmapCsv() const {
-    std::string out = "x,y,max_density,max_contact_accel,seconds_above_density_threshold,seconds_above_crush_threshold\n";
+    std::string out =
+        "x,y,max_density,max_contact_accel,seconds_above_density_threshold,seconds_above_crush_threshold,worst_los\n";
     if (cells_.empty()) return out;
     int ix0 = cells_.begin()->first.second, ix1 = ix0;
     const int iy0 = cells_.begin()->first.first, iy1 = cells_.rbegin()->first.first;
@@ -259,6 +300,8 @@ std::string SafetyRecorder::heatmapCsv() const {
             out += ',';
             appendNumber(out, v);
         }
+        out += ',';
+        out += c.worstLos;
         out += '\n';
     };
     if (!full) {
@@ -408,6 +451,14 @@ Verdict SafetyRecorder::verdict(const Simulation& sim) const {
     return v;
 }
 
+void addReasons(Verdict& v, std::vector<VerdictReason> more) {
+    for (VerdictReason& r : more) v.reasons.push_back(std::move(r));
+    std::stable_sort(v.reasons.begin(), v.reasons.end(), [](const VerdictReason& a, const VerdictReason& b) {
+        return verdictRank(a.level) > verdictRank(b.level);
+    });
+    if (!v.reasons.empty() && verdictRank(v.reasons.front().level) > verdictRank(v.level)) v.level = v.reasons.front().level;
+}
+
 Json verdictJsonValue(const Verdict& v) {
     Json reasons = Json::array();
     for (const VerdictReason& r : v.reasons) {
@@ -424,6 +475,7 @@ Json verdictJsonValue(const Verdict& v) {
                                {"duration", jsonNumber(r.duration)},
                                {"people", r.people},
                                {"where", where},
+                               {"place", r.place.empty() ? Json(nullptr) : Json(r.place)},
                                {"text", r.text}});
     }
     return Json{{"level", v.level}, {"reasons", reasons}};

@@ -64,6 +64,9 @@ const std::map<std::string, std::string>& homes() {
         {"draw", "<Source>"},
         {"closeexit", "<Schedule>"},
         {"openexit", "<Schedule>"},
+        {"measurement", "<Simulation>"},
+        {"line", "<Measurement>"},
+        {"area", "<Measurement>"},
     };
     return m;
 }
@@ -608,6 +611,8 @@ void readSafety(LoadContext& ctx, const std::string& file, const XMLElement* el)
     t.pressureWindow = r.value("pressure_window");
     t.minDuration = r.value("min_duration");
     t.doseDangerousFraction = r.value("dose_dangerous_fraction");
+    t.flowCapacity = r.value("flow_capacity");
+    t.flowWindow = r.value("flow_window");
     // The three density levels must rise, or a level would never be reported. The message names
     // both values as written (or the default) at the attribute that breaks the order.
     auto shown = [&](const char* attr, double v) {
@@ -696,9 +701,12 @@ void readSimulation(LoadContext& ctx, const std::string& file, const XMLElement*
             readBlock(ctx, file, c, Block::Obstacles, false);
         } else if (is(c, "Schedule")) {
             readSchedule(ctx, file, c);
+        } else if (is(c, "Measurement")) {
+            readMeasurement(ctx, file, c);
         } else {
             reportUnexpectedElement(ctx, file, c, el->Name(),
-                                    {"World", "Policies", "Agents", "Obstacles", "Output", "Safety", "Schedule"});
+                                    {"World", "Policies", "Agents", "Obstacles", "Output", "Safety", "Schedule",
+                                     "Measurement"});
         }
     }
     if (world == nullptr) ctx.diags.error(r.loc(), "Simulation: missing required element <World>");

@@ -139,6 +139,8 @@ void readExitSet(LoadContext& ctx, const std::string& file, const XMLElement* el
 void readJourney(LoadContext& ctx, const std::string& file, const XMLElement* el);
 void readSource(LoadContext& ctx, const std::string& file, const XMLElement* el);
 void readExitEvent(LoadContext& ctx, const std::string& file, const XMLElement* el, bool open);
+/// <Measurement interval> in <Simulation>: <Line> and <Area> children (xml_venue.cpp).
+void readMeasurement(LoadContext& ctx, const std::string& file, const XMLElement* el);
 /// Once everything is loaded: names resolve, exits are exits, targets touch walkable floor and
 /// every agent can reach the targets of its journey (xml_venue.cpp). Then expands the sources.
 void checkVenue(LoadContext& ctx);

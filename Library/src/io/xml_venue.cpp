@@ -457,6 +457,77 @@ void readExitEvent(LoadContext& ctx, const std::string& file, const XMLElement* 
     if (!r.failed()) ctx.spec.venue.exitEvents.push_back(std::move(e));
 }
 
+void readMeasurement(LoadContext& ctx, const std::string& file, const XMLElement* el) {
+    static const ParamTable table = [] {
+        ParamTable t = {ParamSpec::real("interval", "s", MeasurementSpec{}.interval, 0, 1e6,
+                                        "time between rows of flows.csv and areas.csv")};
+        t[0].minExclusive = true;
+        return t;
+    }();
+    static const ParamTable lineTable = {
+        ParamSpec::real("x1", "m", 0, -1e300, 1e300, "first end: x"),
+        ParamSpec::real("y1", "m", 0, -1e300, 1e300, "first end: y"),
+        ParamSpec::real("x2", "m", 0, -1e300, 1e300, "second end: x"),
+        ParamSpec::real("y2", "m", 0, -1e300, 1e300, "second end: y"),
+    };
+    static const ParamTable areaTable = {
+        ParamSpec::real("xmin", "m", 0, -1e300, 1e300, "rectangle: lower x"),
+        ParamSpec::real("xmax", "m", 0, -1e300, 1e300, "rectangle: upper x"),
+        ParamSpec::real("ymin", "m", 0, -1e300, 1e300, "rectangle: lower y"),
+        ParamSpec::real("ymax", "m", 0, -1e300, 1e300, "rectangle: upper y"),
+    };
+    ElementReader r(ctx, file, el, "Measurement", table);
+    MeasurementSpec& m = ctx.spec.measurement;
+    if (m.loc.line > 0 && !m.loc.file.empty())
+        ctx.diags.warning(r.loc(), "a second <Measurement> (the first is at line " + std::to_string(m.loc.line) +
+                                       "): its lines and areas are added, its interval replaces the first's");
+    m.loc = r.loc();
+    m.interval = r.value("interval");
+    for (const XMLElement* c = el->FirstChildElement(); c != nullptr; c = c->NextSiblingElement()) {
+        if (is(c, "Line")) {
+            ElementReader l(ctx, file, c, "Line", lineTable, {"id"});
+            for (const XMLElement* g = c->FirstChildElement(); g != nullptr; g = g->NextSiblingElement())
+                reportUnexpectedElement(ctx, file, g, c->Name(), {});
+            MeasureLineSpec line;
+            line.loc = l.loc();
+            const std::optional<std::string> name = readName(l, "Line");
+            if (name) {
+                line.name = *name;
+                remember(ctx, "measurement", line.name, line.loc, l);
+            }
+            const auto x1 = l.required("x1"), y1 = l.required("y1"), x2 = l.required("x2"), y2 = l.required("y2");
+            if (!x1 || !y1 || !x2 || !y2) continue;
+            line.a = Vec2(*x1, *y1);
+            line.b = Vec2(*x2, *y2);
+            if (!(line.length() > 0)) l.error(l.loc(), "Line: its two ends are the same point");
+            if (!l.failed() && name) m.lines.push_back(std::move(line));
+        } else if (is(c, "Area")) {
+            ElementReader a(ctx, file, c, "Area", areaTable, {"id"});
+            std::vector<Vec2> points;
+            int pointElements = 0;
+            for (const XMLElement* g = c->FirstChildElement(); g != nullptr; g = g->NextSiblingElement()) {
+                if (!is(g, "Point")) {
+                    reportUnexpectedElement(ctx, file, g, c->Name(), {"Point"});
+                    continue;
+                }
+                ++pointElements;
+                if (std::optional<Vec2> p = readPoint(ctx, file, g, "Point")) points.push_back(*p);
+            }
+            MeasureAreaSpec area;
+            area.loc = a.loc();
+            const std::optional<std::string> name = readName(a, "Area");
+            if (name) {
+                area.name = *name;
+                remember(ctx, "measurement", area.name, area.loc, a);
+            }
+            area.polygon = readArea(a, points, pointElements, "Area", true);
+            if (!a.failed() && name && !area.polygon.empty()) m.areas.push_back(std::move(area));
+        } else {
+            reportUnexpectedElement(ctx, file, c, el->Name(), {"Line", "Area"});
+        }
+    }
+}
+
 void checkVenue(LoadContext& ctx) {
     ScenarioSpec& spec = ctx.spec;
     VenueSpec& venue = spec.venue;

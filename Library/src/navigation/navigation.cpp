@@ -154,6 +154,8 @@ Vec2 Navigation::directionTo(int target, const Vec2& p, double& distance) const 
     return normalisedOrZero(c - p);
 }
 
+double Navigation::width(int target) const { return targets_[static_cast<std::size_t>(target)].width; }
+
 double Navigation::distanceTo(int target, const Vec2& p) const {
     double d = 0;
     directionTo(target, p, d);

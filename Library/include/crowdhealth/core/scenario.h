@@ -200,6 +200,13 @@ struct SafetyThresholds {
     double pressureWindow = 5.0;
     double minDuration = 1.0;         ///< s a density/pressure condition must hold (anywhere) to count
     double doseDangerousFraction = 0.5;  ///< crush is `dangerous` once a dose reaches this share of injuryDose
+    /// P/(m·s): an exit or measurement line whose specific flow stays above it (for minDuration)
+    /// is at capacity — 1.33, the maximum specific flow of the IMO guidelines (MSC.1/Circ.1533)
+    /// and the SFPE handbook's hydraulic model.
+    double flowCapacity = 1.33;
+    /// s: the specific flow compared with flowCapacity is the crossings of the last flowWindow
+    /// seconds (a sustained rate, not the count of one interval).
+    double flowWindow = 10.0;
 };
 
 /// The trajectory files a run writes (<Output trajectories>, crowdhealth --trajectories).

@@ -97,6 +97,15 @@ public:
     const std::vector<Evacuation>& evacuations() const { return evacuations_; }
     /// Agents removed because they left a planar world.
     std::size_t leftWorld() const { return leftWorld_; }
+    /// Every agent removed so far (at its goal or exit, or out of a planar world), in removal order,
+    /// with its last position: what measurement lines need to count the last move of someone who
+    /// left between two records.
+    struct Removal {
+        AgentId id;
+        double time;    ///< s
+        Vec2 position;  ///< m, where it was when removed
+    };
+    const std::vector<Removal>& removed() const { return removed_; }
     /// Agents not yet activated (start_time in the future, or a source's arrival waiting for room).
     std::size_t pending() const { return pending_.size() - nextPending_ + deferred_.size(); }
     std::size_t totalAgents() const { return spec_.agents.size(); }
@@ -175,6 +184,7 @@ private:
     std::unique_ptr<Navigation> navigation_;
     std::vector<std::size_t> deferred_;  ///< source arrivals that found no free place, in order
     std::vector<Evacuation> evacuations_;
+    std::vector<Removal> removed_;
     std::size_t leftWorld_ = 0;
     int reorderInterval_ = kReorderInterval;
     double maxRange_ = 1.0;                ///< grid cell size: the largest neighbourhood radius

@@ -52,6 +52,13 @@ struct CrowdField {
     std::vector<std::uint64_t> keys_;  ///< cellKey of each entry, ascending (for find())
 };
 
+/// Fruin's (1971) level of service for walkways, from the area per person: A ≥ 35 ft² (3.25 m²),
+/// B ≥ 25 ft², C ≥ 15 ft², D ≥ 10 ft², E ≥ 5 ft² (0.46 m²), F below. Density in persons/m²; an
+/// empty area is A.
+char fruinLevel(double density);
+/// The lowest density (persons/m²) of each level B…F: 1/(35 ft²), 1/(25 ft²), … 1/(5 ft²).
+double fruinLowerDensity(char level);
+
 /// Evaluates the Helbing et al. 2007 local density and local velocity on the grid (one instant).
 CrowdField crowdField(const AgentStore& agents, double cellSize = 1.0, double gaussianRadius = 0.7);
 
@@ -66,6 +73,7 @@ struct VerdictReason {
     std::size_t people = 0;
     bool hasWhere = false;
     double x = 0, y = 0, xmin = 0, xmax = 0, ymin = 0, ymax = 0;  ///< m: centroid and bounding box
+    std::string place;     ///< the named exit, measurement line or area (empty: a region of cells)
     std::string text;      ///< one readable sentence
 };
 
@@ -76,6 +84,9 @@ struct Verdict {
 
 /// Rank of a level: safe 0, caution 1, dangerous 2, critical 3.
 int verdictRank(const std::string& level);
+/// Adds reasons (e.g. MeasurementRecorder::reasons()) to a verdict: most severe first (stable),
+/// and the level is that of the most severe.
+void addReasons(Verdict& v, std::vector<VerdictReason> more);
 
 /// Follows the crowd measures over a run (call record() at t = 0 and after every coarse step)
 /// and keeps, per cell, the peaks and the seconds each threshold held.
@@ -94,9 +105,11 @@ public:
     double maxPressure() const { return maxPressure_; }
 
     /// heatmap.csv: header `x,y,max_density,max_contact_accel,seconds_above_density_threshold,
-    /// seconds_above_crush_threshold`; one row per cell of the rectangle covering every cell ever
-    /// evaluated, y ascending then x ascending; x, y = cell centre (m); the density threshold is
-    /// densityDangerous, the crush threshold each agent's crushThreshold.
+    /// seconds_above_crush_threshold,worst_los`; one row per cell of the rectangle covering every
+    /// cell ever evaluated, y ascending then x ascending; x, y = cell centre (m); the density
+    /// threshold is densityDangerous, the crush threshold each agent's crushThreshold; worst_los =
+    /// the worst of Fruin's walkway levels (A–F) the cell's local density held for minDuration
+    /// without a break.
     std::string heatmapCsv() const;
 
     /// The verdict from these records and the simulation's health records.
@@ -114,6 +127,11 @@ private:
         double meanDensity = 0, meanSquaredSpeed = 0;
         Vec2 meanVelocity{0, 0};
         double sampledAt = std::numeric_limits<double>::quiet_NaN();
+        /// Seconds each of Fruin's levels B…F (and worse) has held without a break, and the
+        /// worst level that held for minDuration ('A' when none did).
+        double losRun[5] = {0, 0, 0, 0, 0};
+        double losAt = std::numeric_limits<double>::quiet_NaN();
+        char worstLos = 'A';
     };
     struct Timeline {
         double firstTime = std::numeric_limits<double>::quiet_NaN();

@@ -63,6 +63,8 @@ public:
     /// Remaining path length (m) from p to venue target `target` (index into VenueSpec::targets):
     /// geodesic with <Navigation>, straight otherwise.
     double distanceTo(int target, const Vec2& p) const;
+    /// Clear width (m) of venue target `target` (an exit's `width`, else its longer side, 1 m for a point).
+    double width(int target) const;
     /// Current state of exit `target` (true = open).
     bool open(int target) const { return open_[static_cast<std::size_t>(target)] != 0; }
 
