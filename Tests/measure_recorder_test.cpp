@@ -298,3 +298,29 @@ BOOST_AUTO_TEST_CASE(reasons_join_the_verdict_by_severity) {
     BOOST_TEST(safe.level == "caution");
     BOOST_TEST(verdictJson(safe).find("\"place\":\"gate\"") != std::string::npos);
 }
+
+BOOST_AUTO_TEST_CASE(heatmap_worst_los_is_the_worst_level_held_for_min_duration) {
+    // A tight cluster (local density far above F near its centre) for 2 s, then gone; with a
+    // spell of 0.5 s instead the worst level held for min_duration (1 s) stays below F.
+    std::vector<Vec2> cluster;
+    for (int j = 0; j < 6; ++j)
+        for (int i = 0; i < 6; ++i) cluster.push_back(Vec2(10.1 + 0.45 * i, 10.1 + 0.45 * j));
+    auto worstAtCentre = [&](double spell) {
+        SafetyRecorder rec;
+        const AgentStore dense = standing(cluster), empty;
+        for (int step = 0; step <= 40; ++step) {
+            const double t = 0.1 * step;
+            rec.recordCrowd(t < spell - 1e-9 ? dense : empty, t);
+        }
+        // The row of the cell holding (11.2, 11.2): its last column.
+        const std::string csv = rec.heatmapCsv();
+        const std::size_t at = csv.find("\n11.5,11.5,");
+        BOOST_REQUIRE(at != std::string::npos);
+        const std::size_t end = csv.find('\n', at + 1);
+        return csv[end - 1];
+    };
+    BOOST_TEST(worstAtCentre(2.0) == 'F');
+    const char brief = worstAtCentre(0.5);
+    BOOST_TEST(brief != 'F');
+    BOOST_TEST(brief == 'A');  // nothing held for 1 s: the cluster was there 0.5 s, then nobody
+}
