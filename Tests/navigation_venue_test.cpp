@@ -549,3 +549,28 @@ BOOST_AUTO_TEST_CASE(premovement_keeps_an_agent_standing_then_it_walks) {
     while (!sim.finished()) sim.stepCoarse();
     BOOST_TEST(sim.agents().pos[0].x() > 2.0);
 }
+
+BOOST_AUTO_TEST_CASE(measurement_lines_and_areas_load_and_their_mistakes_are_errors_at_their_lines) {
+    const std::string world = "<World type=\"Planar\" xmin=\"0\" xmax=\"10\" ymin=\"0\" ymax=\"10\"/>\n";
+    const std::string agents = "<Agent><pos x=\"1\" y=\"1\"/><goal x=\"9\" y=\"9\"/><Policy id=\"0\"/></Agent>\n";
+    const Loaded good = load("measure.xml", simulation(world, agents, 10,
+                                                       "<Measurement interval=\"2\"><Line id=\"door\" x1=\"0\" y1=\"5\" x2=\"10\" y2=\"5\"/>"
+                                                       "<Area id=\"hall\" xmin=\"1\" xmax=\"4\" ymin=\"1\" ymax=\"3\"/>"
+                                                       "<Area id=\"tri\"><Point x=\"5\" y=\"5\"/><Point x=\"8\" y=\"5\"/><Point x=\"5\" y=\"8\"/></Area>"
+                                                       "</Measurement>\n"));
+    BOOST_REQUIRE_MESSAGE(good.spec, good.messages);
+    const MeasurementSpec& m = good.spec->measurement;
+    BOOST_TEST(m.interval == 2.0);
+    BOOST_REQUIRE(m.lines.size() == 1u);
+    BOOST_TEST((m.lines[0].b == Vec2(10, 5)));
+    BOOST_REQUIRE(m.areas.size() == 2u);
+    BOOST_TEST(m.areas[1].polygon.size() == 3u);
+    expectError("m1.xml", simulation(world, agents, 10, "<Measurement>\n<Line id=\"dot\" x1=\"1\" y1=\"1\" x2=\"1\" y2=\"1\"/></Measurement>\n"),
+                "<Line id=\"dot\"", "its two ends are the same point");
+    expectError("m2.xml",
+                simulation(world, agents, 10,
+                           "<Measurement>\n<Line id=\"a\" x1=\"1\" y1=\"1\" x2=\"2\" y2=\"1\"/>\n<Area id=\"a\" xmin=\"1\" xmax=\"2\" ymin=\"1\" ymax=\"2\"/></Measurement>\n"),
+                "<Area id=\"a\"", "duplicate measurement name 'a'");
+    expectError("m3.xml", simulation(world, agents, 10, "<Measurement>\n<Area id=\"b\"/></Measurement>\n"), "<Area id=\"b\"",
+                "Area: needs an area");
+}
