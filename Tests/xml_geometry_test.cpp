@@ -239,11 +239,13 @@ BOOST_AUTO_TEST_CASE(arcs_circles_and_bulges_become_chords_within_a_centimetre) 
                                .arc("0", 10, 0, 5, 0, 90)      // a quarter of a 5 m circle round (10, 0)
                                .circle("0", 20, 20, 0.5)       // a round pillar
                                .lwpolyline("0", {{0, 10}, {4, 10}}, false, "", {1.0})  // a half circle from (0,10) to (4,10)
+                               .lwpolyline("0", {{0, 20}, {4, 20}}, false, "", {std::tan(M_PI / 8)})  // a quarter circle
                                .end());
     const ScenarioSpec s = loadOk("round.xml", scenario("<Obstacles file=\"round.dxf\"/>"));
-    std::vector<ObstacleSpec> arcSegs, bulgeSegs, circles;
+    std::vector<ObstacleSpec> arcSegs, bulgeSegs, quarterSegs, circles;
     for (const ObstacleSpec& o : s.obstacles) {
         if (o.points.size() > 2) circles.push_back(o);
+        else if (o.points[0].x() <= 4 + 1e-9 && o.points[0].y() >= 17) quarterSegs.push_back(o);
         else if (o.points[0].x() <= 4 + 1e-9 && o.points[0].y() >= 7.9) bulgeSegs.push_back(o);
         else arcSegs.push_back(o);
     }
@@ -275,6 +277,16 @@ BOOST_AUTO_TEST_CASE(arcs_circles_and_bulges_become_chords_within_a_centimetre) 
         for (const Vec2& p : o.points) {
             BOOST_TEST((p - Vec2(2, 10)).norm() == 2.0, boost::test_tools::tolerance(1e-9));
             BOOST_TEST(p.y() <= 10 + 1e-9);
+        }
+    // A bulge of tan(22.5°) between (0, 20) and (4, 20): a quarter circle whose centre lies left of
+    // the direction of travel, at (2, 22), radius 2·√2, the arc below the chord.
+    BOOST_TEST_REQUIRE(quarterSegs.size() >= 4u);
+    BOOST_TEST(near(quarterSegs.front().points[0], Vec2(0, 20)));
+    BOOST_TEST(near(quarterSegs.back().points[1], Vec2(4, 20)));
+    for (const ObstacleSpec& o : quarterSegs)
+        for (const Vec2& p : o.points) {
+            BOOST_TEST((p - Vec2(2, 22)).norm() == 2 * std::sqrt(2.0), boost::test_tools::tolerance(1e-9));
+            BOOST_TEST(p.y() <= 20 + 1e-9);
         }
 }
 
