@@ -355,8 +355,20 @@ BOOST_AUTO_TEST_CASE(layers_map_entities_to_exits_targets_lines_areas_and_walls)
     BOOST_TEST(std::abs(polygonArea(areas[0].polygon)) == 12.0, boost::test_tools::tolerance(1e-12));
     BOOST_TEST(areas[1].name == "ZONES-2");
     BOOST_TEST(std::abs(polygonArea(areas[1].polygon)) > 0.95 * M_PI);
-    // The ignored layer gives nothing; its TEXT is reported as not read.
-    BOOST_TEST(has(l.messages, "1 TEXT entity ignored"), l.messages);
+    // The ignored layer gives nothing, and its TEXT is not worth a warning.
+    BOOST_TEST(!has(l.messages, "TEXT"), l.messages);
+}
+
+BOOST_AUTO_TEST_CASE(entities_not_read_are_a_warning_unless_their_layer_is_ignored) {
+    Dxf d;
+    d.entities().line("0", 0, 0, 1, 0);
+    const int first = d.nextLine();
+    d.text("0", "a").text("PLAN", "b").text("NOTES", "c");
+    writeFile("text.dxf", d.end());
+    const Loaded l = load("text.xml", scenario(R"(<Obstacles file="text.dxf"><Layer name="NOTES" as="ignore"/></Obstacles>)"));
+    BOOST_TEST_REQUIRE(l.spec.has_value(), l.messages);
+    BOOST_TEST(has(l.messages, (scratch() / "text.dxf").string() + ":" + std::to_string(first) +
+                                   ": warning: 2 TEXT entities ignored (CrowdHealth reads LINE"), l.messages);
 }
 
 BOOST_AUTO_TEST_CASE(layer_names_match_in_any_case_and_a_missing_layer_is_a_warning_with_a_suggestion) {

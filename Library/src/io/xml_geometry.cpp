@@ -264,8 +264,12 @@ private:
 /// What the pre-scan learnt.
 struct DxfScan {
     std::optional<int> insunits;                 ///< $INSUNITS of the header
-    std::map<std::string, int> unsupported;      ///< entity type → count (ENTITIES section)
-    std::map<std::string, int> unsupportedLine;  ///< entity type → line of the first
+    /// Entities of the ENTITIES section that CrowdHealth does not read: type, layer, line.
+    struct Unread {
+        std::string type, layer;
+        int line = 0;
+    };
+    std::vector<Unread> unsupported;
     std::set<std::string> layers;                ///< layers of the entities (upper case)
     std::map<std::string, std::string> layerSpelling;  ///< upper case → as written
 };
@@ -317,9 +321,11 @@ bool scanDxf(LoadContext& ctx, const std::string& path, const std::string& conte
     std::string section;          // current section name, "" outside
     bool sectionNamePending = false, sawEntities = false, eof = false, firstGroup = true;
     std::string entity;           // type of the current entity record (ENTITIES/BLOCKS), "" otherwise
+    std::string entityLayer = "0";
     int entityLine = 0, lwVertices = 0;
     long lwDeclared = -1;
     std::string headerVar;
+    static const std::set<std::string> supported = {"LINE", "LWPOLYLINE", "POLYLINE", "VERTEX", "SEQEND", "ARC", "CIRCLE"};
     const auto endEntity = [&]() -> bool {
         if (entity == "LWPOLYLINE") {
             if (lwDeclared < 0) return fail(entityLine, "LWPOLYLINE without its vertex count (group 90): a broken DXF entity");
@@ -327,10 +333,11 @@ bool scanDxf(LoadContext& ctx, const std::string& path, const std::string& conte
                 return fail(entityLine, "LWPOLYLINE declares " + std::to_string(lwDeclared) + " vertices (group 90) but holds " +
                                             std::to_string(lwVertices) + ": a broken DXF entity");
         }
+        if (section == "ENTITIES" && !entity.empty() && supported.count(entity) == 0)
+            scan.unsupported.push_back({entity, entityLayer, entityLine});
         entity.clear();
         return true;
     };
-    static const std::set<std::string> supported = {"LINE", "LWPOLYLINE", "POLYLINE", "VERTEX", "SEQEND", "ARC", "CIRCLE"};
     std::size_t i = 0;
     for (; i + 1 < lines.size() || (i < lines.size() && !trim(lines[i]).empty()); i += 2) {
         const int line = static_cast<int>(i + 1);
@@ -371,9 +378,7 @@ bool scanDxf(LoadContext& ctx, const std::string& path, const std::string& conte
                 entityLine = line;
                 lwVertices = 0;
                 lwDeclared = -1;
-                if (section == "ENTITIES" && supported.count(value) == 0) {
-                    if (scan.unsupported[value]++ == 0) scan.unsupportedLine[value] = line;
-                }
+                entityLayer = "0";
             }
             continue;
         }
@@ -414,6 +419,7 @@ bool scanDxf(LoadContext& ctx, const std::string& path, const std::string& conte
             if (entity == "LWPOLYLINE" && code == 90) lwDeclared = v;
         }
         if (entity == "LWPOLYLINE" && code == 10) ++lwVertices;
+        if (code == 8) entityLayer = value;
         if (code == 8 && section == "ENTITIES") {
             const std::string up = upperAscii(value);
             scan.layers.insert(up);
@@ -653,11 +659,24 @@ void readDxf(LoadContext& ctx, const SourceLoc& namedBy, const std::string& path
                                                       "\", but scale=\"" + formatNumber(scale) + "\" is used (" +
                                                       namedBy.file + ":" + std::to_string(namedBy.line) + ")");
     }
-    for (const auto& [type, count] : scan.unsupported)
-        ctx.diags.warning(SourceLoc{path, scan.unsupportedLine[type]},
+    // Entities not read, by type (those on an ignored layer are not worth a word).
+    std::map<std::string, std::pair<int, int>> unread;  // type → (count, line of the first)
+    for (const DxfScan::Unread& u : scan.unsupported) {
+        const bool ignored = std::any_of(rules.begin(), rules.end(), [&](const LayerRule& r) {
+            return r.role == Role::Ignore && equalsIgnoreCase(r.name, u.layer);
+        });
+        if (ignored) continue;
+        auto [it, fresh] = unread.emplace(u.type, std::make_pair(0, u.line));
+        ++it->second.first;
+    }
+    for (const auto& [type, seen] : unread) {
+        const int count = seen.first;
+        ctx.diags.warning(SourceLoc{path, seen.second},
                           std::to_string(count) + " " + type + " entit" + (count == 1 ? "y" : "ies") +
                               " ignored (CrowdHealth reads LINE, LWPOLYLINE, POLYLINE, ARC and CIRCLE" +
-                              (type == "INSERT" ? "; explode block references in the CAD program" : "") + ")");
+                              (type == "INSERT" ? "; explode block references in the CAD program" : "") +
+                              "; map their layer as=\"ignore\" to silence this)");
+    }
 
     DxfCollector collector(ctx, path, kChordError / scale);
     DL_Dxf dxf;
