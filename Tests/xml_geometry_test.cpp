@@ -290,6 +290,24 @@ BOOST_AUTO_TEST_CASE(arcs_circles_and_bulges_become_chords_within_a_centimetre) 
         }
 }
 
+BOOST_AUTO_TEST_CASE(only_the_model_space_entities_are_read_and_mirrored_arcs_are_mirrored) {
+    // A block definition holding a line, an entity in paper space (group 67 = 1), and a circle whose
+    // extrusion is (0, 0, -1): its OCS centre (5, 0) is the world's (-5, 0).
+    Dxf d;
+    d.g(0, "SECTION").g(2, "BLOCKS").g(0, "BLOCK").g(8, "0").g(2, "CHAIR").g(70, "0").g(10, "0").g(20, "0").g(30, "0");
+    d.g(0, "LINE").g(8, "0").g(10, "100").g(20, "100").g(30, "0").g(11, "200").g(21, "100").g(31, "0");
+    d.g(0, "ENDBLK").g(8, "0").g(0, "ENDSEC");
+    d.entities().line("0", 0, 0, 1, 0);
+    d.g(0, "LINE").g(67, "1").g(8, "0").g(10, "50").g(20, "50").g(30, "0").g(11, "60").g(21, "50").g(31, "0");
+    d.g(0, "CIRCLE").g(8, "0").g(10, "5").g(20, "0").g(30, "0").g(40, "1").g(210, "0").g(220, "0").g(230, "-1");
+    writeFile("spaces.dxf", d.end());
+    const ScenarioSpec s = loadOk("spaces.xml", scenario("<Obstacles file=\"spaces.dxf\"/>"));
+    BOOST_TEST_REQUIRE(s.obstacles.size() == 2u);
+    BOOST_TEST(hasSegment(s, Vec2(0, 0), Vec2(1, 0)));
+    BOOST_TEST_REQUIRE(s.obstacles[1].points.size() > 2u);
+    for (const Vec2& p : s.obstacles[1].points) BOOST_TEST((p - Vec2(-5, 0)).norm() == 1.0, boost::test_tools::tolerance(1e-9));
+}
+
 // ---- DXF: layers --------------------------------------------------------------------------------
 
 namespace {
