@@ -561,6 +561,8 @@ BOOST_AUTO_TEST_CASE(malformed_wkt_is_an_error_at_the_line_and_column_of_the_tok
     check("hole.xml", "POLYGON ((0 0, 4 0, 4 4, 0 4, 0 0),\n(3 3, 5 3, 5 5, 3 3))", 2, 1, "hole 1 has a corner (5, 3) outside its outer ring");
     check("flat.xml", "POLYGON ((0 0, 4 0, 8 0, 0 0))", 1, 10, "outer ring has no area");
     check("nothing.xml", "", 1, 1, "expected POLYGON or MULTIPOLYGON, found the end of the file");
+    check("short.xml", "POLYGON ((0 0, 1 0, 0 0))", 1, 10, "outer ring has 3 points: a ring needs at least 4");
+    check("bom.xml", "\xEF\xBB\xBFPOLYGON ((0 0, 1 0, 1 1, 0 0), (q))", 1, 36, "expected a number (x), found 'q'");
 }
 
 // ---- a run ----------------------------------------------------------------------------------------

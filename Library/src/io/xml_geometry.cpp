@@ -874,6 +874,9 @@ void readWkt(LoadContext& ctx, const SourceLoc& namedBy, const std::string& path
         buf << in.rdbuf();
         text = buf.str();
     }
+    // A UTF-8 byte-order mark (some Windows editors write one) is not part of the text; blank it
+    // so that columns still count from the file's first byte.
+    if (text.rfind("\xEF\xBB\xBF", 0) == 0) text.replace(0, 3, "   ");
     WktParser parser(text);
     const auto at = [&](std::size_t pos) {
         const auto [line, col] = parser.lineColumn(pos);
@@ -895,7 +898,12 @@ void readWkt(LoadContext& ctx, const SourceLoc& namedBy, const std::string& path
             const auto [loc, col] = at(r.pos);
             const std::string which = (k == 0 ? std::string("outer ring") : "hole " + std::to_string(k)) +
                                       (polygons.size() > 1 ? " of polygon " + std::to_string(p + 1) : "");
-            if (r.pts.size() < 4 || (r.pts.front() - r.pts.back()).norm() > 0) {
+            if (r.pts.size() < 4) {
+                ctx.diags.error(loc, col + which + " has " + std::to_string(r.pts.size()) +
+                                         " points: a ring needs at least 4 (three corners, then the first again)");
+                continue;
+            }
+            if ((r.pts.front() - r.pts.back()).norm() > 0) {
                 ctx.diags.error(loc, col + which + " is not closed: a WKT ring repeats its first point at its end (" +
                                          std::to_string(r.pts.size()) + " points)");
                 continue;
