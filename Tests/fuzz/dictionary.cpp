@@ -42,10 +42,14 @@ int main() {
                           "\"fine\"", "\"coarse\"", "\"nearest\"", "\"quickest\"", "\"weighted\"",
                           "\"uniform\"", "\"normal\"", "\"constant\"", "\"pref_speed\"", "\"true\"", "\"false\"", "\"auto\"", "\"nan\"", "\"1e308\"",
                           "\"-1\"", "\"0\"", "/>", "<?xml version=\"1.0\"?>", "<!--", "-->", "\n--FILE--\n",
-                          "\"inc1.xml\"", "\"inc2.xml\"", "\"inc3.xml\"", "\"main.xml\"",
+                          "\"inc1.xml\"", "\"inc2.xml\"", "\"inc3.xml\"", "\"main.xml\"", "\"inc1.dxf\"", "\"inc1.wkt\"",
                           // <Layer as="…"> of <Obstacles file="….dxf"> (docs/geometry.md)
                           "\"wall\"", "\"boundary\"", "\"exit\"", "\"target\"", "\"line\"", "\"area\"",
-                          "\"ignore\""})
+                          "\"ignore\"",
+                          // the files themselves: DXF group pairs and WKT words
+                          "0\nSECTION\n2\nENTITIES\n", "0\nENDSEC\n0\nEOF\n", "0\nLINE\n8\n0\n10\n", "0\nLWPOLYLINE\n",
+                          "0\nPOLYLINE\n", "0\nVERTEX\n", "0\nSEQEND\n", "0\nARC\n", "0\nCIRCLE\n", "\n90\n",
+                          "\n70\n1\n", "\n42\n", "\n5\n2F\n", "$INSUNITS", "POLYGON ((", "MULTIPOLYGON (((", "EMPTY"})
         tokens.insert(v);
     for (const std::string& t : tokens) {
         std::cout << '"';
