@@ -39,7 +39,8 @@ rm -f build-fuzz.log
 mkdir -p fuzz-corpus fuzz-artifacts
 build-fuzz/bin/fuzz_dictionary > fuzz-corpus/loader.dict
 
-# Seeds. Loader: each scenario, with the files it names appended as inc1.xml … (file= rewritten).
+# Seeds. Loader: each scenario, with the files it names appended as inc1.xml … (file= rewritten;
+# a .dxf or .wkt file keeps its extension: the harness writes every named file under all three).
 python3 - "$PWD" <<'PY'
 import os, re, sys, glob, hashlib
 root = sys.argv[1]
@@ -60,7 +61,8 @@ for path in sorted(set(files)):
         if len(parts) >= 4 or not os.path.isfile(target):
             return m.group(0)
         parts.append(open(target, encoding="utf-8", errors="replace").read())
-        return '%sfile="inc%d.xml"' % (m.group(1), len(parts) - 1)
+        ext = os.path.splitext(name)[1].lower()  # .dxf and .wkt keep their reader
+        return '%sfile="inc%d%s"' % (m.group(1), len(parts) - 1, ext if ext in (".dxf", ".wkt") else ".xml")
     parts[0] = re.sub(r'(\s)file="([^"]*)"', include, text)
     data = "\n--FILE--\n".join(parts).encode()
     if len(data) > 200000:

@@ -9,6 +9,8 @@ PACKAGES=(g++ cmake make pkg-config libtinyxml2-dev libeigen3-dev libboost-progr
           libboost-filesystem-dev gnuplot-nox
           # every JSON file written or read (summary.json, render.json)
           nlohmann-json3-dev
+          # <Obstacles file="venue.dxf">: the DXF reader (docs/geometry.md)
+          libdxflib-dev
           # crowdhealth-viewer and its test, screenshots/PNG checks (docs/rendering.md)
           libglfw3-dev libgl-dev zlib1g-dev xvfb xauth)
 

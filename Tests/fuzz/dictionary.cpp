@@ -15,7 +15,7 @@ int main() {
                           "Step", "costfunction", "CostFunction", "CrowdHealth", "Agents", "Agent", "pos", "goal",
                           "color", "AgentGrid", "SpawnRectangle", "Output", "Safety", "Schedule", "Ramp",
                           "PanicEvent", "Navigation", "Target", "Exit", "ExitSet", "Journey", "Waypoint", "Source",
-                          "Rate", "Draw", "CloseExit", "OpenExit"}) {
+                          "Rate", "Draw", "CloseExit", "OpenExit", "Layer"}) {
         tokens.insert("<" + std::string(e));
         tokens.insert("</" + std::string(e) + ">");
     }
@@ -30,7 +30,7 @@ int main() {
                           "cell_size", "clearance", "min_speed", "margin", "exits", "weights", "fixed", "choice",
                           "interval", "hysteresis", "flow_capacity", "leave_by", "target", "dwell", "capacity",
                           "rate", "count", "journey", "premovement", "attribute", "distribution", "value", "min",
-                          "max", "mean", "sd", "exit"})
+                          "max", "mean", "sd", "exit", "as", "scale", "prefix"})
         tokens.insert(std::string(a) + "=\"");
     for (const ch::ComponentInfo* info : ch::Registry::instance().all()) {
         tokens.insert("\"" + info->name + "\"");
@@ -42,7 +42,14 @@ int main() {
                           "\"fine\"", "\"coarse\"", "\"nearest\"", "\"quickest\"", "\"weighted\"",
                           "\"uniform\"", "\"normal\"", "\"constant\"", "\"pref_speed\"", "\"true\"", "\"false\"", "\"auto\"", "\"nan\"", "\"1e308\"",
                           "\"-1\"", "\"0\"", "/>", "<?xml version=\"1.0\"?>", "<!--", "-->", "\n--FILE--\n",
-                          "\"inc1.xml\"", "\"inc2.xml\"", "\"inc3.xml\"", "\"main.xml\""})
+                          "\"inc1.xml\"", "\"inc2.xml\"", "\"inc3.xml\"", "\"main.xml\"", "\"inc1.dxf\"", "\"inc1.wkt\"",
+                          // <Layer as="…"> of <Obstacles file="….dxf"> (docs/geometry.md)
+                          "\"wall\"", "\"boundary\"", "\"exit\"", "\"target\"", "\"line\"", "\"area\"",
+                          "\"ignore\"",
+                          // the files themselves: DXF group pairs and WKT words
+                          "0\nSECTION\n2\nENTITIES\n", "0\nENDSEC\n0\nEOF\n", "0\nLINE\n8\n0\n10\n", "0\nLWPOLYLINE\n",
+                          "0\nPOLYLINE\n", "0\nVERTEX\n", "0\nSEQEND\n", "0\nARC\n", "0\nCIRCLE\n", "\n90\n",
+                          "\n70\n1\n", "\n42\n", "\n5\n2F\n", "$INSUNITS", "POLYGON ((", "MULTIPOLYGON (((", "EMPTY"})
         tokens.insert(v);
     for (const std::string& t : tokens) {
         std::cout << '"';

@@ -3,7 +3,8 @@
 // that once crashed, replayed in the normal suite). docs/development.md explains both.
 //
 // An input is one or more files separated by a line "--FILE--":
-//   loader:  main.xml, then inc1.xml, inc2.xml, inc3.xml (the main file names them with file="…")
+//   loader:  main.xml, then inc1.xml, inc2.xml, inc3.xml (the main file names them with file="…";
+//            each is also written as incK.dxf and incK.wkt for the venue geometry readers)
 //   readers: trajectories.bin, trajectories.txt, output_7.csv (UMANS), then a run folder's
 //            metrics.csv, summary.json, health.csv, heatmap.csv
 // The files are written to a scratch folder and read through the program's own readers; any
@@ -66,7 +67,10 @@ inline void loaderInput(const std::uint8_t* data, std::size_t size) {
     const fs::path dir = scratch("loader");
     const std::vector<std::string> files = splitFiles(data, size, 4);
     writeFile(dir / "main.xml", files[0]);
-    for (std::size_t k = 1; k < files.size(); ++k) writeFile(dir / ("inc" + std::to_string(k) + ".xml"), files[k]);
+    // Each named file under three names, so file="incK.dxf" and "incK.wkt" reach the venue
+    // geometry readers (docs/geometry.md) as "incK.xml" reaches the XML one.
+    for (std::size_t k = 1; k < files.size(); ++k)
+        for (const char* ext : {".xml", ".dxf", ".wkt"}) writeFile(dir / ("inc" + std::to_string(k) + ext), files[k]);
     Diagnostics diags;
     const std::optional<ScenarioSpec> spec = loadScenario((dir / "main.xml").string(), diags);
     std::ostringstream sink;

@@ -49,6 +49,7 @@ const std::map<std::string, std::string>& homes() {
         {"obstacle", "<Obstacles> or <World>"},
         {"box", "<Obstacles> or <World>"},
         {"point", "<Obstacle>"},
+        {"layer", "<Obstacles file=\"….dxf\">"},
         {"schedule", "<Simulation>"},
         {"ramp", "<Schedule>"},
         {"panicevent", "<Schedule>"},
@@ -404,10 +405,25 @@ void readExternalBlock(LoadContext& ctx, const std::string& file, const XMLEleme
     }
 }
 
+const ParamTable& obstaclesTable() {
+    static const ParamTable t = [] {
+        ParamTable table = {
+            ParamSpec::real("scale", "-", 1.0, 0, 1e300,
+                            "file=*.dxf|*.wkt: metres per drawing unit (0.001 for millimetres)"),
+        };
+        table[0].minExclusive = true;
+        return table;
+    }();
+    return t;
+}
+
 void readBlock(LoadContext& ctx, const std::string& file, const XMLElement* el, Block kind, bool external) {
     static const ParamTable none;
     // A file named by file= cannot name another one: no chains, no cycles.
-    ElementReader r(ctx, file, el, blockName(kind), none, {"file"});
+    ElementReader r(ctx, file, el, blockName(kind), kind == Block::Obstacles ? obstaclesTable() : none, {"file"});
+    if (kind == Block::Obstacles && r.has("scale") && !isGeometryFile(r.text("file").value_or("")))
+        r.error(r.loc("scale"), "Obstacles@scale applies to a DXF or WKT file (file=\"….dxf\" or \"….wkt\"); "
+                                "XML obstacles are in metres");
     if (std::optional<std::string> name = r.text("file"); name && external) {
         namespace fs = std::filesystem;
         std::error_code same;
@@ -420,6 +436,9 @@ void readBlock(LoadContext& ctx, const std::string& file, const XMLElement* el, 
                                          *name + "' from the main scenario");
         if (kind == Block::Policies) ctx.policiesIncomplete = true;
         if (kind == Block::Agents) ctx.agentsIncomplete = true;
+        return;
+    } else if (name && kind == Block::Obstacles && isGeometryFile(*name)) {
+        readGeometryFile(ctx, file, el, r, *name);
         return;
     } else if (name) {
         if (el->FirstChildElement() != nullptr)

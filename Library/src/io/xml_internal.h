@@ -129,6 +129,12 @@ void checkWallModels(LoadContext& ctx);
 void readAgent(LoadContext& ctx, const std::string& file, const XMLElement* el);
 void readAgentGrid(LoadContext& ctx, const std::string& file, const XMLElement* el);
 void readSpawnRectangle(LoadContext& ctx, const std::string& file, const XMLElement* el);
+/// True for a name ending in .dxf or .wkt (any case): venue geometry rather than an XML file.
+bool isGeometryFile(const std::string& name);
+/// `<Obstacles file="venue.dxf|room.wkt" scale>` with its `<Layer>` children (xml_geometry.cpp,
+/// docs/geometry.md). `r` reads the <Obstacles> element (its `scale` attribute).
+void readGeometryFile(LoadContext& ctx, const std::string& file, const XMLElement* el, ElementReader& r,
+                      const std::string& name);
 void readObstacle(LoadContext& ctx, const std::string& file, const XMLElement* el);
 void readBox(LoadContext& ctx, const std::string& file, const XMLElement* el);
 /// Venue elements (xml_venue.cpp): <Navigation>, <Target>, <Exit>, <ExitSet>, <Journey> in
