@@ -574,3 +574,24 @@ BOOST_AUTO_TEST_CASE(measurement_lines_and_areas_load_and_their_mistakes_are_err
     expectError("m3.xml", simulation(world, agents, 10, "<Measurement>\n<Area id=\"b\"/></Measurement>\n"), "<Area id=\"b\"",
                 "Area: needs an area");
 }
+
+BOOST_AUTO_TEST_CASE(an_exit_drawn_flush_across_a_door_in_its_wall_is_reachable) {
+    // The exit rectangle spans the door and the wall on both sides (x 4 … 6 over a door at
+    // 4.4 … 5.6, y −0.3 … 0.3): its floor lies on both sides of the wall; the loader took one cell
+    // of it (behind the wall) for the whole and refused the journey; the people inside reach it.
+    std::string world = "<World type=\"Planar\" xmin=\"-1\" xmax=\"11\" ymin=\"-3\" ymax=\"11\">\n<Navigation/>\n" +
+                        wall(0, 0, 4.4, 0) + wall(5.6, 0, 10, 0) + wall(0, 10, 10, 10) + wall(0, 0, 0, 10) + wall(10, 0, 10, 10) +
+                        "<Exit id=\"door\" xmin=\"4\" xmax=\"6\" ymin=\"-0.3\" ymax=\"0.3\"/>\n<Journey id=\"out\" leave_by=\"door\"/>\n</World>\n";
+    const Loaded l = load("flush.xml", simulation(world, agentsAt(grid(2, 5, 4, 2, 2.0), "out"), 60));
+    BOOST_REQUIRE_MESSAGE(l.spec, l.messages);
+    const Outcome o = runScenario(*l.spec);
+    BOOST_TEST(o.exitOf.size() == 8u);
+}
+
+BOOST_AUTO_TEST_CASE(an_agent_placed_inside_an_obstacle_is_an_error_with_navigation) {
+    std::string world = "<World type=\"Planar\" xmin=\"0\" xmax=\"20\" ymin=\"0\" ymax=\"10\">\n<Navigation/>\n"
+                        "<Obstacle><Point x=\"4\" y=\"4\"/><Point x=\"6\" y=\"4\"/><Point x=\"6\" y=\"6\"/><Point x=\"4\" y=\"6\"/></Obstacle>\n"
+                        "<Exit id=\"e\" xmin=\"19\" xmax=\"20\" ymin=\"0\" ymax=\"10\"/>\n<Journey id=\"j\" leave_by=\"e\"/>\n</World>\n";
+    const std::string xml = simulation(world, "<AgentGrid x=\"1\" y=\"1\" columns=\"8\" rows=\"8\" spacing=\"1\" journey=\"j\"><Policy id=\"0\"/></AgentGrid>\n");
+    expectError("inside.xml", xml, "<AgentGrid", "starts inside an obstacle");
+}

@@ -199,7 +199,7 @@ public:
                     l.a = s.pts[k];
                     l.b = s.pts[k + 1];
                     l.loc = s.loc;
-                    if (!remember("measurement line:" + l.name, s)) return;
+                    if (!remember("measurement:" + l.name, s)) return;
                     ctx_.spec.measurement.lines.push_back(std::move(l));
                     ++used_;
                 }
@@ -212,7 +212,7 @@ public:
                 a.name = nextName(rule, s);
                 a.polygon = *p;
                 a.loc = s.loc;
-                if (!remember("measurement area:" + a.name, s)) return;
+                if (!remember("measurement:" + a.name, s)) return;
                 ctx_.spec.measurement.areas.push_back(std::move(a));
                 ++used_;
                 return;

@@ -635,21 +635,21 @@ void checkVenue(LoadContext& ctx) {
         if (have > 0 && need > 0.4 * have) diags.warning(venue.navigation->loc, numbers + ": the run may exhaust memory");
         const WalkableGrid grid(world, venue.navigation->grid, lo, hi);
         const double search = 1.5 * grid.cellSize();
-        std::vector<int> component(venue.targets.size(), -1);
+        // The target's floor: every walkable cell inside it or within 1.5 cells of it (as the field
+        // seeds them), which may lie in several separate regions — an exit drawn across a door's
+        // wall touches the floor on both sides, and people on either side reach it.
+        std::vector<std::set<int>> component(venue.targets.size());
         for (std::size_t k = 0; k < venue.targets.size(); ++k) {
             const TargetSpec& t = venue.targets[k];
-            // The target's floor: a walkable cell inside it or within 1.5 cells of it (as seeded).
             const auto b = t.shape.bounds();
             int i0, j0, i1, j1;
             grid.cellOf(b.first - Vec2(search, search), i0, j0);
             grid.cellOf(b.second + Vec2(search, search), i1, j1);
-            for (int iy = std::max(0, j0); iy <= std::min(grid.ny() - 1, j1) && component[k] < 0; ++iy)
+            for (int iy = std::max(0, j0); iy <= std::min(grid.ny() - 1, j1); ++iy)
                 for (int ix = std::max(0, i0); ix <= std::min(grid.nx() - 1, i1); ++ix)
-                    if (grid.walkable(ix, iy) && t.shape.distance(grid.centre(ix, iy)) <= search) {
-                        component[k] = grid.component(ix, iy);
-                        break;
-                    }
-            if (component[k] < 0)
+                    if (grid.walkable(ix, iy) && t.shape.distance(grid.centre(ix, iy)) <= search)
+                        component[k].insert(grid.component(ix, iy));
+            if (component[k].empty())
                 diags.error(t.loc, std::string(t.exit ? "Exit" : "Target") + " '" + t.name +
                                        "' touches no walkable floor: it lies inside a wall or obstacle, or outside the world");
         }
@@ -657,7 +657,7 @@ void checkVenue(LoadContext& ctx) {
         // The components of a journey's targets (its exits: any one reachable will do).
         auto reachable = [&](int from, const JourneySpec& j, std::string& missing) {
             for (const WaypointSpec& w : j.waypoints)
-                if (component[static_cast<std::size_t>(venue.targetIndex(w.target))] != from) {
+                if (!component[static_cast<std::size_t>(venue.targetIndex(w.target))].count(from)) {
                     missing = "target '" + w.target + "'";
                     return false;
                 }
@@ -665,11 +665,19 @@ void checkVenue(LoadContext& ctx) {
             std::vector<std::string> exits = {j.leaveBy};
             if (const int s = venue.exitSetIndex(j.leaveBy); s >= 0) exits = venue.exitSets[static_cast<std::size_t>(s)].exits;
             for (const std::string& e : exits)
-                if (component[static_cast<std::size_t>(venue.targetIndex(e))] == from) return true;
+                if (component[static_cast<std::size_t>(venue.targetIndex(e))].count(from)) return true;
             missing = "any exit of '" + j.leaveBy + "'";
             return false;
         };
         int reported = 0;
+        // Nobody starts inside a solid obstacle (a generator's grid laid over a pillar): such an
+        // agent could never walk out.
+        for (const AgentSpec& a : spec.agents) {
+            if (reported >= 5 || a.source >= 0 || !world.insideObstacle(a.position)) continue;
+            diags.error(a.loc, "agent " + std::to_string(a.id) + " starts inside an obstacle at (" + formatNumber(a.position.x()) +
+                                   ", " + formatNumber(a.position.y()) + "): move it or the generator's area");
+            ++reported;
+        }
         for (const AgentSpec& a : spec.agents) {
             if (a.journey.empty() || reported >= 5) continue;
             const int from = grid.componentNear(a.position, 2 * a.radius + grid.cellSize());
@@ -688,12 +696,22 @@ void checkVenue(LoadContext& ctx) {
         for (const AgentSpec& a : spec.agents) {
             if (!a.journey.empty() || !a.goal || reported >= 5) continue;
             const int from = grid.componentNear(a.position, 2 * a.radius + grid.cellSize());
-            const int to = grid.componentNear(*a.goal, search);
-            if (to < 0) {
+            // The goal's floor: every region within 1.5 cells of it (a goal in a doorway touches both sides).
+            std::set<int> to;
+            {
+                int i0, j0, i1, j1;
+                grid.cellOf(*a.goal - Vec2(search, search), i0, j0);
+                grid.cellOf(*a.goal + Vec2(search, search), i1, j1);
+                for (int iy = std::max(0, j0); iy <= std::min(grid.ny() - 1, j1); ++iy)
+                    for (int ix = std::max(0, i0); ix <= std::min(grid.nx() - 1, i1); ++ix)
+                        if (grid.walkable(ix, iy) && (grid.centre(ix, iy) - *a.goal).norm() <= search)
+                            to.insert(grid.component(ix, iy));
+            }
+            if (to.empty()) {
                 diags.error(a.loc, "the agent's goal (" + std::to_string(a.goal->x()) + ", " + std::to_string(a.goal->y()) +
                                        ") lies inside a wall or obstacle, or off the navigation grid");
                 ++reported;
-            } else if (from >= 0 && from != to) {
+            } else if (from >= 0 && !to.count(from)) {
                 diags.error(a.loc, "the agent cannot reach its goal: no walkable path leads there from its start");
                 ++reported;
             }

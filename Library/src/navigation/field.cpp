@@ -287,22 +287,39 @@ DistanceField::DistanceField(const WalkableGrid& grid, const TargetShape& target
     iy0 = std::max(iy0, 0);
     ix1 = std::min(ix1, nx - 1);
     iy1 = std::min(iy1, ny - 1);
+    // With a clearance, where a body fits matters: cells closer than kBodyRoom to a wall (a target
+    // drawn over the wall beside a door) are left out while others remain, and when the target
+    // itself holds roomy cells only those are seeds (no halo round it). Otherwise the field leads
+    // people to the part of the target over the wall, where the wall holds them off it for good.
+    constexpr double kBodyRoom = 0.3;  // m, a body radius and a margin
+    std::vector<int> candidates;
+    bool roomy = false, roomyInside = false;
     for (int iy = iy0; iy <= iy1; ++iy)
         for (int ix = ix0; ix <= ix1; ++ix) {
             if (!grid.walkable(ix, iy)) continue;
             const double d = target.distance(grid.centre(ix, iy));
             if (!(d <= seedRadius)) continue;
-            const int k = grid.index(ix, iy);
-            // d/f, plus clearance·(1/f − 1): reaching the target close to a wall costs what keeping
-            // clear of it would (0 where f = 1), so a target drawn across a door funnels people to
-            // the door's middle instead of its posts.
-            const double f = grid.speed(ix, iy);
-            value_[static_cast<std::size_t>(k)] =
-                static_cast<float>(d / f + grid.settings().clearance * (1.0 / f - 1.0));
-            state[static_cast<std::size_t>(k)] = Seed;
-            heap.push({value_[static_cast<std::size_t>(k)], k});
-            seeded_ = true;
+            candidates.push_back(grid.index(ix, iy));
+            const bool room = grid.wallDistance(ix, iy) >= kBodyRoom;
+            roomy = roomy || room;
+            roomyInside = roomyInside || (room && d == 0);
         }
+    const bool clear = grid.settings().clearance > 0;
+    const bool onlyRoomy = clear && roomy, onlyInside = clear && roomyInside;
+    for (const int k : candidates) {
+        const int ix = k % nx, iy = k / nx;
+        if (onlyRoomy && grid.wallDistance(ix, iy) < kBodyRoom) continue;
+        const double d = target.distance(grid.centre(ix, iy));
+        if (onlyInside && d > 0) continue;
+        // d/f, plus clearance·(1/f − 1): reaching the target close to a wall costs what keeping
+        // clear of it would (0 where f = 1), so a target drawn across a door funnels people to
+        // the door's middle instead of its posts.
+        const double f = grid.speed(ix, iy);
+        value_[static_cast<std::size_t>(k)] = static_cast<float>(d / f + grid.settings().clearance * (1.0 / f - 1.0));
+        state[static_cast<std::size_t>(k)] = Seed;
+        heap.push({value_[static_cast<std::size_t>(k)], k});
+        seeded_ = true;
+    }
 
     auto known = [&](int ix, int iy) {
         return ix >= 0 && iy >= 0 && ix < nx && iy < ny && state[static_cast<std::size_t>(grid.index(ix, iy))] == Known;
