@@ -81,6 +81,13 @@ std::string fixed(double v) {
 
 }  // namespace
 
+ch::Vec2 forwardDirection(const ch::Vec2& a, const ch::Vec2& b) {
+    const ch::Vec2 d = b - a;
+    const double len = d.norm();
+    if (!(len > 0)) return ch::Vec2(0, 0);
+    return ch::Vec2(d.y() / len, -d.x() / len);
+}
+
 std::string readLosGrid(const std::filesystem::path& heatmapCsv, std::vector<LosCell>& cells, bool& hasLos) {
     cells.clear();
     hasLos = false;

@@ -5,11 +5,18 @@
 
 #include "plot_data.h"
 
+#include <crowdhealth/core/types.h>
+
 #include <filesystem>
 #include <string>
 #include <vector>
 
 namespace chplot {
+
+/// The unit vector from a measurement line a → b towards its forward side (the right-hand side
+/// seen from a looking at b: (b − a) turned by −90°), where the maps draw its arrow; (0, 0) when
+/// a = b.
+ch::Vec2 forwardDirection(const ch::Vec2& a, const ch::Vec2& b);
 
 /// One cell of the level-of-service map.
 struct LosCell {

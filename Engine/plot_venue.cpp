@@ -2,6 +2,7 @@
 #include "plot_venue.h"
 
 #include "plot.h"
+#include "plot_measure_data.h"
 
 #include <crowdhealth/io/output.h>
 
@@ -112,7 +113,7 @@ int VenueOverlay::setObjects(GnuplotJob& job, int tag, const VenueStyle& style, 
         const ch::Vec2 d = l.b - l.a;
         const double len = d.norm();
         if (!(len > 0)) continue;
-        const ch::Vec2 dir = d / len, forward(dir.y(), -dir.x());  // (b − a) turned by −90°
+        const ch::Vec2 dir = d / len, forward = forwardDirection(l.a, l.b);
         const ch::Vec2 mid = 0.5 * (l.a + l.b), tip = mid + arrow * forward, text = l.b + 0.2 * arrow * dir;
         job.cmd("set arrow " + std::to_string(tag++) + " from " + num(mid.x()) + "," + num(mid.y()) + " to " +
                 num(tip.x()) + "," + num(tip.y()) + " head filled size screen 0.012,25 lw 2 lc rgb '" + kMeasureColour +

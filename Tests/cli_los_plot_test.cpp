@@ -14,6 +14,7 @@
 #include "plot_measure_data.h"
 
 #include <crowdhealth/health/safety.h>
+#include <crowdhealth/measure/recorder.h>
 
 #include <set>
 
@@ -235,6 +236,24 @@ BOOST_AUTO_TEST_CASE(levels_have_fruins_colours_and_ranges) {
         BOOST_TEST(ch::fruinLevel(ch::fruinLowerDensity(level) * 1.0001) == level);
         BOOST_TEST(ch::fruinLevel(ch::fruinLowerDensity(level) * 0.9999) == level - 1);
     }
+}
+
+BOOST_AUTO_TEST_CASE(the_arrow_points_to_the_side_the_recorder_counts_as_forward) {
+    // For lines in every direction, a short move from the middle along the arrow is a forward
+    // crossing for MeasurementRecorder (ch::crossing), and the reverse move a backward one.
+    for (int k = 0; k < 12; ++k) {
+        const double angle = k * 0.5236 + 0.1;
+        const ch::Vec2 a(1, 2), b = a + 3.0 * ch::Vec2(std::cos(angle), std::sin(angle));
+        const ch::Vec2 f = chplot::forwardDirection(a, b), mid = 0.5 * (a + b);
+        BOOST_TEST(std::abs(f.norm() - 1) < 1e-12);
+        BOOST_TEST(ch::crossing(a, b, mid - 0.1 * f, mid + 0.1 * f) == +1, "angle " << angle);
+        BOOST_TEST(ch::crossing(a, b, mid + 0.1 * f, mid - 0.1 * f) == -1, "angle " << angle);
+    }
+    // Examples/venues/four-exits.xml's south door, drawn west to east: forward is south (out).
+    const ch::Vec2 f = chplot::forwardDirection(ch::Vec2(9.5, 0), ch::Vec2(10.5, 0));
+    BOOST_TEST(f.x() == 0.0);
+    BOOST_TEST(f.y() == -1.0);
+    BOOST_TEST(chplot::forwardDirection(ch::Vec2(1, 1), ch::Vec2(1, 1)).norm() == 0.0);
 }
 
 BOOST_AUTO_TEST_CASE(flows_csv_is_read_per_line_and_exit) {
