@@ -261,7 +261,7 @@ BOOST_AUTO_TEST_CASE(flows_csv_is_read_per_line_and_exit) {
     // A 2 m line and a 1 m exit, 1 s rows.
     write(dir / "flows.csv",
           "time,line,kind,forward,backward,flow,specific_flow\n"
-          "1,door,line,0,0,0,0\n1,out,exit,1,0,1,1\n"
+          "1,door,line,2,0,2,1\n1,out,exit,1,0,1,1\n"
           "2,door,line,3,1,4,2\n2,out,exit,2,0,2,2\n"
           "3,door,line,2,0,2,1\n3,out,exit,0,0,0,0\n");
     std::vector<chplot::FlowSeries> s;
@@ -273,7 +273,7 @@ BOOST_AUTO_TEST_CASE(flows_csv_is_read_per_line_and_exit) {
     BOOST_TEST(s[1].exit);
     BOOST_TEST(s[0].width == 2.0);  // flow / specific_flow
     BOOST_TEST(s[1].width == 1.0);
-    BOOST_TEST(s[0].totalForward == 5);
+    BOOST_TEST(s[0].totalForward == 7);
     BOOST_TEST(s[0].totalBackward == 1);
     BOOST_REQUIRE_EQUAL(s[0].specificFlow.size(), 3u);
     BOOST_TEST(s[0].specificFlow[1].second == 2.0);
@@ -282,9 +282,9 @@ BOOST_AUTO_TEST_CASE(flows_csv_is_read_per_line_and_exit) {
     // Over a 2 s window: crossings in (t − 2, t] / 2 s / width.
     const chplot::Curve w = chplot::windowedSpecificFlow(s[0], 2.0);
     BOOST_REQUIRE_EQUAL(w.size(), 3u);
-    BOOST_TEST(w[0].second == 0.0);
-    BOOST_TEST(w[1].second == 4.0 / 2 / 2);        // rows 1 and 2
-    BOOST_TEST(w[2].second == (4.0 + 2) / 2 / 2);  // rows 2 and 3 (row 1 at t − 2 is out)
+    BOOST_TEST(w[0].second == 2.0 / 2 / 2);
+    BOOST_TEST(w[1].second == (2.0 + 4) / 2 / 2);  // rows 1 and 2
+    BOOST_TEST(w[2].second == (4.0 + 2) / 2 / 2);  // rows 2 and 3 (row 1, at t − 2, is out)
     // A line never crossed has no width: no windowed curve.
     write(dir / "none.csv", "time,line,kind,forward,backward,flow,specific_flow\n1,l,line,0,0,0,0\n");
     BOOST_TEST(chplot::readFlows(dir / "none.csv", s) == "");
