@@ -175,11 +175,13 @@ std::string readFlows(const std::filesystem::path& csv, std::vector<FlowSeries>&
             return where(csv, line) + ": time, forward, backward, flow and specific_flow must be numbers";
         const std::string& name = row[c[1]];
         if (name.empty()) return where(csv, line) + ": no line name";
-        auto [it, inserted] = index.try_emplace(name, series.size());
+        // By kind and name: a measurement line may share its name with an exit.
+        const bool exit = row[c[2]] == "exit";
+        auto [it, inserted] = index.try_emplace((exit ? "exit:" : "line:") + name, series.size());
         if (inserted) {
             series.emplace_back();
             series.back().name = name;
-            series.back().exit = row[c[2]] == "exit";
+            series.back().exit = exit;
         }
         FlowSeries& s = series[it->second];
         if (flow > 0 && specific > 0 && s.width == 0) s.width = flow / specific;

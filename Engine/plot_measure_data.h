@@ -54,7 +54,7 @@ struct FlowSeries {
 };
 
 /// Reads flows.csv (`time,line,kind,forward,backward,flow,specific_flow`): one series per line or
-/// exit, in the order they first appear. Returns an error naming the file and line, or "".
+/// exit (a line and an exit of the same name are two series), in the order they first appear. Returns an error naming the file and line, or "".
 std::string readFlows(const std::filesystem::path& csv, std::vector<FlowSeries>& series);
 
 /// The specific flow over the last `window` seconds at each row of `s` (crossings in (t − window,

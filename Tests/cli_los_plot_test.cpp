@@ -285,6 +285,13 @@ BOOST_AUTO_TEST_CASE(flows_csv_is_read_per_line_and_exit) {
     BOOST_TEST(w[0].second == 2.0 / 2 / 2);
     BOOST_TEST(w[1].second == (2.0 + 4) / 2 / 2);  // rows 1 and 2
     BOOST_TEST(w[2].second == (4.0 + 2) / 2 / 2);  // rows 2 and 3 (row 1, at t − 2, is out)
+    // A measurement line may have an exit's name: two series.
+    write(dir / "same.csv", "time,line,kind,forward,backward,flow,specific_flow\n1,out,line,2,0,2,1\n1,out,exit,1,0,1,1\n");
+    BOOST_TEST(chplot::readFlows(dir / "same.csv", s) == "");
+    BOOST_REQUIRE_EQUAL(s.size(), 2u);
+    BOOST_TEST(!s[0].exit);
+    BOOST_TEST(s[1].exit);
+    BOOST_TEST(s[1].totalForward == 1);
     // A line never crossed has no width: no windowed curve.
     write(dir / "none.csv", "time,line,kind,forward,backward,flow,specific_flow\n1,l,line,0,0,0,0\n");
     BOOST_TEST(chplot::readFlows(dir / "none.csv", s) == "");
