@@ -125,14 +125,15 @@ int VenueOverlay::setObjects(GnuplotJob& job, int tag, const VenueStyle& style, 
                 num(text.y()) + (flipped ? " right" : " left") + " rotate by " + num(angle) +
                 " front boxed noenhanced font ',10' textcolor rgb '" + kMeasureColour + "'");
     }
-    // Measurement areas: the name at the middle of the area.
+    // Measurement areas: the name inside, at the middle of the bounding box's lower edge (clear
+    // of the doors and lines an area usually lies against with its other edges, and of the middle,
+    // where the map's colours matter).
     for (const ch::MeasureAreaSpec& a : spec_->measurement.areas) {
         if (a.polygon.empty()) continue;
-        ch::Vec2 c(0, 0);
-        for (const ch::Vec2& p : a.polygon) c += p;
-        c /= static_cast<double>(a.polygon.size());
-        job.cmd("set label " + std::to_string(tag++) + " " + gpString(a.name) + " at " + num(c.x()) + "," + num(c.y()) +
-                " center front boxed noenhanced font ',9' textcolor rgb '" + kMeasureColour + "'");
+        double x0 = a.polygon[0].x(), x1 = x0, y0 = a.polygon[0].y();
+        for (const ch::Vec2& p : a.polygon) x0 = std::min(x0, p.x()), x1 = std::max(x1, p.x()), y0 = std::min(y0, p.y());
+        job.cmd("set label " + std::to_string(tag++) + " " + gpString(a.name) + " at " + num(0.5 * (x0 + x1)) + "," +
+                num(y0) + " center offset 0,0.8 front boxed noenhanced font ',9' textcolor rgb '" + kMeasureColour + "'");
     }
     return tag;
 }
