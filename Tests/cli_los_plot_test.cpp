@@ -233,6 +233,9 @@ BOOST_AUTO_TEST_CASE(levels_have_fruins_colours_and_ranges) {
     BOOST_TEST(chplot::losLegend('F') == "F: ρ > 2.15 P/m² (< 0.46 m²/P)");
     // Each legend's range holds its level: just above the lower density and at 99.99 % of the upper.
     for (const char level : {'B', 'C', 'D', 'E', 'F'}) {
+        // Exactly at the boundary: the level before (each level includes its upper density), as
+        // docs/measurement.md says.
+        BOOST_TEST(ch::fruinLevel(ch::fruinLowerDensity(level)) == level - 1);
         BOOST_TEST(ch::fruinLevel(ch::fruinLowerDensity(level) * 1.0001) == level);
         BOOST_TEST(ch::fruinLevel(ch::fruinLowerDensity(level) * 0.9999) == level - 1);
     }
