@@ -53,6 +53,9 @@ void addTimePanels(GnuplotJob& job, const std::string& figureTitle, int rows, in
         double largest = 0;
         for (const Series& s : p.series)
             for (const auto& [t, v] : s.points) largest = std::max(largest, std::abs(v));
+        // A fixed right margin (and left, so that the panels line up) or gnuplot's automatic ones.
+        job.cmd(p.rightMargin > 0 ? "set rmargin at screen " + num(p.rightMargin) : std::string("set rmargin -1"));
+        job.cmd(p.rightMargin > 0 ? std::string("set lmargin at screen 0.07") : std::string("set lmargin -1"));
         if (p.yMax > 0) {
             job.cmd("set yrange [0:" + num(p.yMax) + "]");
             job.cmd("set ytics autofreq");
@@ -91,8 +94,10 @@ void addTimePanels(GnuplotJob& job, const std::string& figureTitle, int rows, in
         if (p.key) {
             std::size_t entries = 0;
             for (const Series& s : p.series) entries += !s.title.empty() && !s.points.empty();
+            // Inside the panel: two columns at most half as tall; outside (beside it): one column.
+            const bool outside = p.keyWhere.rfind("outside", 0) == 0;
             job.cmd("set key " + p.keyWhere + " box opaque samplen 2 spacing 1.1 font ',10' maxrows " +
-                    std::to_string(std::max<std::size_t>(6, (entries + 2) / 2 + 1)));
+                    std::to_string(outside ? entries + 2 : std::max<std::size_t>(6, (entries + 2) / 2 + 1)));
         } else {
             job.cmd("unset key");
         }
@@ -132,6 +137,8 @@ void addTimePanels(GnuplotJob& job, const std::string& figureTitle, int rows, in
         for (Rows& r : blocks) job.data(std::move(r));
     }
     job.cmd("unset label 8");
+    job.cmd("set rmargin -1");
+    job.cmd("set lmargin -1");
     job.cmd("unset multiplot");
     for (int b = 0; b < 12; ++b) {
         job.cmd("unset object " + std::to_string(20 + b));

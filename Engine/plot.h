@@ -81,6 +81,8 @@ struct Panel {
     std::string zeroLabel;   ///< written across the panel when every value is 0 (e.g. "nobody injured")
     std::vector<YBand> bands;  ///< behind the curves; the y range then ends at yMax
     double yMax = 0;           ///< > 0: the y range is [0, yMax] (else from the data)
+    double rightMargin = 0;    ///< > 0: the plot ends at this fraction of the width (room for an outside
+                               ///< key) and begins at 0.07, so that panels line up; 0: automatic
 };
 
 /// The smallest positive gap between the sorted distinct values (a grid's cell size), else 1.

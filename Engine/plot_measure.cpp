@@ -183,6 +183,7 @@ void drawFlows(const Experiment& e, std::vector<fs::path>& written, std::vector<
     counts.key = true;
     counts.plainText = true;
     flow.keyWhere = counts.keyWhere = "outside right top";
+    flow.rightMargin = counts.rightMargin = 0.70;  // both panels equally wide, whatever their keys
     for (std::size_t i = 0; i < series.size(); ++i) {
         const FlowSeries& s = series[i];
         std::string name = s.exit ? "exit " : "line ";  // += : GCC 12 warns (-Wrestrict) on "literal" + string
