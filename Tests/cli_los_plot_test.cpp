@@ -171,6 +171,35 @@ BOOST_AUTO_TEST_CASE(no_los_png_for_a_heatmap_without_worst_los) {
     BOOST_TEST(fs::exists(dir / "out" / "heatmap.png"));
 }
 
+BOOST_AUTO_TEST_CASE(cells_nobody_came_near_stay_white) {
+    const fs::path dir = freshDir(caseName());
+    write(dir / "venue.xml", venue(true));
+    const Result r = run(dir, {"-i", "venue.xml", "-o", "out", "--plot", "--trajectories", "none"});
+    BOOST_REQUIRE_MESSAGE(r.status == 0, r.err);
+    const std::size_t before = decodePng(dir / "out" / "los.png").count(kLosA);
+    // The same heat map with every cell reached (max_density > 0): the cells nobody came near —
+    // the middle of the room between the two groups, the corners — turn from white to A.
+    std::istringstream in(readFile(dir / "out" / "heatmap.csv"));
+    std::string line, all;
+    std::getline(in, line);
+    all = line + "\n";
+    while (std::getline(in, line)) {
+        std::vector<std::string> cells;
+        std::string cell;
+        std::istringstream row(line);
+        while (std::getline(row, cell, ',')) cells.push_back(cell);
+        BOOST_REQUIRE_EQUAL(cells.size(), 7u);
+        if (cells[2] == "0") cells[2] = "0.001";
+        for (std::size_t k = 0; k < cells.size(); ++k) all += (k ? "," : "") + cells[k];
+        all += "\n";
+    }
+    write(dir / "out" / "heatmap.csv", all);
+    const Result p = run(dir, {"plot", "out", "-q"});
+    BOOST_REQUIRE_MESSAGE(p.status == 0, p.err);
+    const std::size_t after = decodePng(dir / "out" / "los.png").count(kLosA);
+    BOOST_TEST(after > before + before / 4, before << " A pixels, " << after << " with every cell reached");
+}
+
 BOOST_AUTO_TEST_CASE(plot_help_names_the_new_figures) {
     const fs::path dir = freshDir(caseName());
     const Result r = run(dir, {"plot", "--help"});
