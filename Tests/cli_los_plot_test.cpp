@@ -1,7 +1,7 @@
 // los.png, flows.png and areas.png of `crowdhealth plot` / `--plot` (Engine/plot_measure*.{h,cpp},
 // Engine/plot_venue.{h,cpp}, docs/measurement.md "Plots"), and the venue drawn over heatmap.png:
 // drawn for a venue run with measurement lines and areas, in Fruin's colours and with the
-// measurement drawn over the maps; flows.png and areas.png not drawn without flows.csv and
+// measurement drawn over the maps (los.png, heatmap.png, paths.png); flows.png and areas.png not drawn without flows.csv and
 // areas.csv, los.png not drawn for a heatmap.csv without worst_los (an older run). The data
 // functions (worst_los as a grid, Fruin's colours and ranges, flows.csv and areas.csv per line
 // and area, the windowed specific flow) are checked on inputs written here.
@@ -94,9 +94,9 @@ bool listed(const fs::path& dir, const std::string& name) {
 BOOST_AUTO_TEST_CASE(a_run_with_measurement_draws_los_flows_and_areas_over_the_venue) {
     const fs::path dir = freshDir(caseName());
     write(dir / "venue.xml", venue(true));
-    const Result r = run(dir, {"-i", "venue.xml", "-o", "out", "--plot", "--trajectories", "none"});
+    const Result r = run(dir, {"-i", "venue.xml", "-o", "out", "--plot", "--trajectories", "bin"});
     BOOST_REQUIRE_MESSAGE(r.status == 0, r.err);
-    for (const char* png : {"los.png", "flows.png", "areas.png", "heatmap.png"}) {
+    for (const char* png : {"los.png", "flows.png", "areas.png", "heatmap.png", "paths.png"}) {
         BOOST_TEST(fs::exists(dir / "out" / png), png);
         BOOST_TEST(r.out.find(png) != std::string::npos, r.out);
         BOOST_TEST(listed(dir / "out", png), png);  // joins the manifest: the next run replaces it
@@ -116,6 +116,10 @@ BOOST_AUTO_TEST_CASE(a_run_with_measurement_draws_los_flows_and_areas_over_the_v
     const Image heat = decodePng(dir / "out" / "heatmap.png");
     BOOST_TEST(heat.count(kMeasure) > 600u);
     BOOST_TEST(heat.count(kWall) > 600u);
+    // paths.png draws the same venue (through the same VenueOverlay).
+    const Image paths = decodePng(dir / "out" / "paths.png");
+    BOOST_TEST(paths.count(kMeasure) > 300u);
+    BOOST_TEST(paths.count(kWall) > 300u);
     // flows.png and areas.png: one colour per line/exit and per area (the qualitative palette).
     const Image flows = decodePng(dir / "out" / "flows.png");
     BOOST_TEST(flows.count(0x1f77b4) > 300u);  // door_w
