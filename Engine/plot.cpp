@@ -2,7 +2,9 @@
 #include "plot.h"
 
 #include "output_folder.h"
+#include "plot_measure.h"
 #include "plot_paths.h"
+#include "plot_venue.h"
 
 #include "exit_codes.h"
 
@@ -51,7 +53,13 @@ void addTimePanels(GnuplotJob& job, const std::string& figureTitle, int rows, in
         double largest = 0;
         for (const Series& s : p.series)
             for (const auto& [t, v] : s.points) largest = std::max(largest, std::abs(v));
-        if (p.integerY && largest < 5) {
+        // A fixed right margin (and left, so that the panels line up) or gnuplot's automatic ones.
+        job.cmd(p.rightMargin > 0 ? "set rmargin at screen " + num(p.rightMargin) : std::string("set rmargin -1"));
+        job.cmd(p.rightMargin > 0 ? std::string("set lmargin at screen 0.07") : std::string("set lmargin -1"));
+        if (p.yMax > 0) {
+            job.cmd("set yrange [0:" + num(p.yMax) + "]");
+            job.cmd("set ytics autofreq");
+        } else if (p.integerY && largest < 5) {
             job.cmd("set yrange [0:5]");  // whole numbers: no 0.2 steps
             job.cmd("set ytics 1");
         } else {
@@ -68,11 +76,28 @@ void addTimePanels(GnuplotJob& job, const std::string& figureTitle, int rows, in
                     ", graph 1 behind fc rgb '" + kRampColour + "' fs solid 1.0 noborder");
         else
             job.cmd("unset object 1");
+        for (int b = 0; b < 12; ++b) {  // the bands of the previous panel
+            job.cmd("unset object " + std::to_string(20 + b));
+            job.cmd("unset label " + std::to_string(20 + b));
+        }
+        for (std::size_t b = 0; b < p.bands.size() && b < 12; ++b) {
+            const YBand& band = p.bands[b];
+            const double top = p.yMax > 0 ? std::min(band.y1, p.yMax) : band.y1;
+            if (p.yMax > 0 && band.y0 >= p.yMax) continue;
+            const std::string tag = std::to_string(20 + b);
+            job.cmd("set object " + tag + " rect from graph 0, first " + num(band.y0) + " to graph 1, first " + num(top) +
+                    " behind fc rgb '" + band.colour + "' fs solid 1.0 noborder");
+            if (!band.label.empty())
+                job.cmd("set label " + tag + " " + gpString(band.label) + " at graph 0.995, first " +
+                        num(0.5 * (band.y0 + top)) + " right front noenhanced font ',10' tc rgb '#404040'");
+        }
         if (p.key) {
             std::size_t entries = 0;
             for (const Series& s : p.series) entries += !s.title.empty() && !s.points.empty();
+            // Inside the panel: two columns at most half as tall; outside (beside it): one column.
+            const bool outside = p.keyWhere.rfind("outside", 0) == 0;
             job.cmd("set key " + p.keyWhere + " box opaque samplen 2 spacing 1.1 font ',10' maxrows " +
-                    std::to_string(std::max<std::size_t>(6, (entries + 2) / 2 + 1)));
+                    std::to_string(outside ? entries + 2 : std::max<std::size_t>(6, (entries + 2) / 2 + 1)));
         } else {
             job.cmd("unset key");
         }
@@ -92,7 +117,8 @@ void addTimePanels(GnuplotJob& job, const std::string& figureTitle, int rows, in
             if (s.points.empty()) continue;
             Rows r;
             for (const auto& [t, v] : s.points) r.push_back({t, v});
-            elements.push_back("'-' using 1:2 with lines lw " + num(s.width) + " lc rgb '" + s.colour + "' " +
+            elements.push_back("'-' using 1:2 with lines lw " + num(s.width) + (s.dash.empty() ? "" : " dt " + s.dash) +
+                               " lc rgb '" + s.colour + "' " +
                                (s.title.empty() ? std::string("notitle") : "title " + gpString(s.title) + " noenhanced"));
             blocks.push_back(std::move(r));
         }
@@ -111,7 +137,13 @@ void addTimePanels(GnuplotJob& job, const std::string& figureTitle, int rows, in
         for (Rows& r : blocks) job.data(std::move(r));
     }
     job.cmd("unset label 8");
+    job.cmd("set rmargin -1");
+    job.cmd("set lmargin -1");
     job.cmd("unset multiplot");
+    for (int b = 0; b < 12; ++b) {
+        job.cmd("unset object " + std::to_string(20 + b));
+        job.cmd("unset label " + std::to_string(20 + b));
+    }
 }
 
 namespace {
@@ -237,8 +269,9 @@ std::vector<Cell> combinedHeatmap(const Experiment& e, int& runsWithMap) {
     return out;
 }
 
-/// The smallest positive gap between the sorted distinct values (the cell size), else 1.
-double cellSize(std::vector<double> v) {
+}  // namespace
+
+double gridStep(std::vector<double> v) {
     std::sort(v.begin(), v.end());
     double best = 0;
     for (std::size_t i = 1; i < v.size(); ++i) {
@@ -248,8 +281,10 @@ double cellSize(std::vector<double> v) {
     return best > 0 ? best : 1.0;
 }
 
+namespace {
+
 void addHeatPanel(GnuplotJob& job, const std::vector<Cell>& cells, double dx, double dy, bool density,
-                  const std::string& title) {
+                  const std::string& title, const VenueOverlay& venue, const VenueStyle& style) {
     job.cmd("set title " + gpString(title) + " font ',13'");
     job.cmd("set xlabel 'x (m)'");
     job.cmd("set ylabel 'y (m)'");
@@ -275,9 +310,14 @@ void addHeatPanel(GnuplotJob& job, const std::vector<Cell>& cells, double dx, do
     else
         plot += ", keyentry with points pt 7 lc rgb '#ffffff' title " +
                 gpString(std::string("never above the ") + (density ? "density" : "crush") + " threshold");
+    std::vector<std::string> elements;
+    std::vector<Rows> blocks;
+    venue.addElements(elements, blocks, style);  // walls, exits, targets, measurement over the cells
+    for (const std::string& el : elements) plot += ", " + el;
     job.cmd(plot);
     job.data(std::move(boxes));
     if (!dots.empty()) job.data(std::move(dots));
+    for (Rows& r : blocks) job.data(std::move(r));
 }
 
 }  // namespace
@@ -361,20 +401,43 @@ void drawExperiment(const Experiment& e, std::vector<fs::path>& written, std::ve
                 xs.push_back(c.x);
                 ys.push_back(c.y);
             }
-            const double dx = cellSize(xs), dy = cellSize(ys);
+            const double dx = gridStep(xs), dy = gridStep(ys);
+            // The venue of the first run with a heat map: walls, exits, targets, measurement.
+            const RunData* first = nullptr;
+            for (const RunData& r : e.runs)
+                if (r.heatmap && !first) first = &r;
+            std::string venueNote;
+            const VenueOverlay venue = VenueOverlay::load(*first, venueNote);
+            if (!venue.has()) notes.push_back("heatmap.png without walls and exits: " + venueNote);
+            Extent extent;
+            venue.grow(extent);
+            for (const Cell& c : cells) {
+                extent.grow(c.x - dx / 2, c.y - dy / 2);
+                extent.grow(c.x + dx / 2, c.y + dy / 2);
+            }
+            extent.pad(0.02);
+            VenueStyle style;
+            style.exitColours = false;
+            style.fillInFront = true;
             GnuplotJob job;
             std::string title = "Where density and crush peaked: " + e.name;
             if (runsWithMap > 1) title += " (largest over " + std::to_string(runsWithMap) + " runs; dots: mean time above threshold)";
             job.cmd("set multiplot layout 1,2 title " + gpString(title) + " noenhanced font ',15'");
             job.cmd("set grid front lc rgb '#c0c0c0'");
             job.cmd("set tics out nomirror");
-            addHeatPanel(job, cells, dx, dy, true, "High density");
-            addHeatPanel(job, cells, dx, dy, false, "Crush (contact acceleration)");
+            job.cmd("set xrange [" + num(extent.x0) + ":" + num(extent.x1) + "]");
+            job.cmd("set yrange [" + num(extent.y0) + ":" + num(extent.y1) + "]");
+            venue.setObjects(job, 1, style, 0.03 * std::max(extent.x1 - extent.x0, extent.y1 - extent.y0));
+            addHeatPanel(job, cells, dx, dy, true, "High density", venue, style);
+            addHeatPanel(job, cells, dx, dy, false, "Crush (contact acceleration)", venue, style);
             job.cmd("unset multiplot");
             draw(job, pngTerminal(1700, 850), "heatmap.png");
         }
     }
     drawPaths(e, written, errors, notes);  // paths.png
+    drawLos(e, written, errors, notes);    // los.png
+    drawFlows(e, written, errors, notes);  // flows.png
+    drawAreas(e, written, errors, notes);  // areas.png
 }
 
 }  // namespace chplot
@@ -459,8 +522,20 @@ int plotCommand(int argc, char* argv[]) {
                      "                .txt or output_<id>.csv), coloured by the exit it left by (grey:\n"
                      "                none), over the walls, targets and exits of its scenario (named in\n"
                      "                summary.json); of the first run that has trajectories\n"
+                     "  los.png       Fruin's level of service per cell: the worst level the local\n"
+                     "                density held for <Safety min_duration> (heatmap.csv's worst_los;\n"
+                     "                worst over the runs), in Fruin's colours, over the walls, exits,\n"
+                     "                targets and measurement lines (arrow: forward) and areas\n"
+                     "  flows.png     specific flow through each measurement line and exit over the\n"
+                     "                last <Safety flow_window> s against flow_capacity (dashed), and\n"
+                     "                the crossings per direction (from flows.csv, when present)\n"
+                     "  areas.png     density in each measurement area against Fruin's levels, and\n"
+                     "                the mean speed there (from areas.csv, when present)\n"
+                     "heatmap.png, paths.png and los.png draw the run's venue (walls, exits, targets,\n"
+                     "measurement lines and areas); flows.png and areas.png show the first run that\n"
+                     "has the file.\n"
                      "The same as the --plot option of a run. See docs/crowd-health.md, \"Plots\", and\n"
-                     "docs/navigation.md, \"Plots\".\n\n"
+                     "docs/navigation.md, \"Plots\", and docs/measurement.md.\n\n"
                   << visible << "\nExit status: 0 success; 1 gnuplot missing or failed, or DIR not writable;\n"
                                 "2 bad command line or DIR holds no run.\n";
         return kExitOk;

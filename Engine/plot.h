@@ -10,6 +10,10 @@
 //   heatmap.png   where high density and crush happened (heatmap.csv), when present
 //   paths.png     every agent's path coloured by its exit, over the venue, when the run wrote
 //                 trajectories (plot_paths.h)
+//   los.png       Fruin's level of service per cell (heatmap.csv's worst_los) over the venue
+//   flows.png     specific flow through each measurement line and exit (flows.csv)
+//   areas.png     density in each measurement area against Fruin's levels (areas.csv)
+//                 (the last three: plot_measure.h, docs/measurement.md)
 // See docs/crowd-health.md, "Plots".
 #pragma once
 
@@ -55,6 +59,15 @@ struct Series {
     double width = 1.5;
     Curve points;
     std::vector<std::array<double, 3>> band;
+    std::string dash;   ///< gnuplot dash type, e.g. "2" (dashed); "" = solid
+};
+
+/// A horizontal band of a panel (values y0 to y1, in the panel's units) behind the curves, with a
+/// label at its right end (e.g. Fruin's levels in areas.png).
+struct YBand {
+    double y0 = 0, y1 = 0;
+    std::string colour;  ///< "#rrggbb" (give a pale one: the curves are drawn over it)
+    std::string label;
 };
 
 /// One panel of values against time.
@@ -66,7 +79,14 @@ struct Panel {
     bool integerY = false;
     bool plainText = false;  ///< title and ylabel without enhanced-text markup (e.g. '_')
     std::string zeroLabel;   ///< written across the panel when every value is 0 (e.g. "nobody injured")
+    std::vector<YBand> bands;  ///< behind the curves; the y range then ends at yMax
+    double yMax = 0;           ///< > 0: the y range is [0, yMax] (else from the data)
+    double rightMargin = 0;    ///< > 0: the plot ends at this fraction of the width (room for an outside
+                               ///< key) and begins at 0.07, so that panels line up; 0: automatic
 };
+
+/// The smallest positive gap between the sorted distinct values (a grid's cell size), else 1.
+double gridStep(std::vector<double> v);
 
 /// The i-th colour of the qualitative palette used for runs and experiments.
 std::string seriesColour(std::size_t i);
