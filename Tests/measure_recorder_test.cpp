@@ -324,3 +324,30 @@ BOOST_AUTO_TEST_CASE(heatmap_worst_los_is_the_worst_level_held_for_min_duration)
     BOOST_TEST(brief != 'F');
     BOOST_TEST(brief == 'A');  // nothing held for 1 s: the cluster was there 0.5 s, then nobody
 }
+
+BOOST_AUTO_TEST_CASE(an_area_empty_part_of_the_interval_reports_the_speed_of_those_present) {
+    // Someone walks at 1.2 m/s through the box during one record of three: the row's speed is
+    // theirs (1.2 m/s), not lowered by the empty records; the density is the mean (1/3 of 1/6).
+    const ScenarioSpec spec = withMeasurement({}, {area("box", {{0, 0}, {2, 0}, {2, 3}, {0, 3}})});
+    MeasurementRecorder rec(spec);
+    rec.record(AgentStore{}, 0.0, {});
+    rec.record(standing({{1, 1}}, {{1.2, 0}}), 0.5, {});
+    rec.record(AgentStore{}, 1.0, {});
+    BOOST_REQUIRE(rec.areaRows()[0].size() == 1u);
+    BOOST_TEST(rec.areaRows()[0][0].speed == 1.2, boost::test_tools::tolerance(1e-12));
+    BOOST_TEST(rec.areaRows()[0][0].density == 1.0 / 18.0, boost::test_tools::tolerance(1e-12));
+}
+
+BOOST_AUTO_TEST_CASE(flows_divide_by_the_interval_as_it_ran) {
+    // Records every 0.3 s with an interval of 1 s: the first row closes at 1.2 s and its flow is
+    // its crossings over 1.2 s.
+    ScenarioSpec spec = withMeasurement({line("gate", {0, 0}, {1, 0})}, {});
+    MeasurementRecorder rec(spec);
+    rec.record(standing({{0.5, 0.5}, {0.2, 0.5}, {0.8, 0.5}}), 0.0, {});
+    rec.record(standing({{0.5, -0.5}, {0.2, -0.5}, {0.8, -0.5}}), 0.3, {});
+    rec.record(standing({{0.5, -0.6}, {0.2, -0.6}, {0.8, -0.6}}), 0.6, {});
+    rec.record(standing({{0.5, -0.7}, {0.2, -0.7}, {0.8, -0.7}}), 0.9, {});
+    rec.record(standing({{0.5, -0.8}, {0.2, -0.8}, {0.8, -0.8}}), 1.2, {});
+    const std::string csv = rec.flowsCsv();
+    BOOST_TEST(csv.find("1.2,gate,line,3,0,2.5,2.5\n") != std::string::npos, csv);
+}

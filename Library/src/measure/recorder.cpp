@@ -95,6 +95,7 @@ void MeasurementRecorder::updateCapacity(Line& l, double t) {
     // The specific flow of the last flow_window seconds against the capacity, held for min_duration.
     while (!l.recent.empty() && l.recent.front() <= t - t_.flowWindow) l.recent.pop_front();
     const double flow = static_cast<double>(l.recent.size()) / t_.flowWindow / l.length;
+    l.peakCount = std::max(l.peakCount, l.recent.size());
     l.peak = std::max(l.peak, flow);
     if (flow > t_.flowCapacity) {
         if (l.heldSince < 0) l.heldSince = t;
@@ -156,6 +157,7 @@ void MeasurementRecorder::record(const AgentStore& agents, double t, const std::
         const double meanSpeed = people > 0 ? speed / people : 0.0;
         a.sumDensity += density;
         a.sumSpeed += meanSpeed;
+        a.occupied += people > 0;
         a.sumFlow += density * meanSpeed;
         a.sumPeople += people;
         ++a.samples;
@@ -181,7 +183,7 @@ void MeasurementRecorder::closeInterval(double t) {
     std::size_t row = 0;
     for (std::vector<Line>* group : {&lines_, &exits_})
         for (Line& l : *group) {
-            flowRows_[row++].push_back(FlowRow{t, l.forward, l.backward});
+            flowRows_[row++].push_back(FlowRow{intervalStart_, t, l.forward, l.backward});
             l.forward = l.backward = 0;
         }
     for (std::size_t k = 0; k < areas_.size(); ++k) {
@@ -189,9 +191,10 @@ void MeasurementRecorder::closeInterval(double t) {
         if (a.samples == 0) continue;
         const double n = a.samples;
         const double density = a.sumDensity / n;
-        areaRows_[k].push_back(AreaRow{t, density, a.sumSpeed / n, a.sumFlow / n, a.sumPeople / n, fruinLevel(density)});
+        const double speed = a.occupied > 0 ? a.sumSpeed / a.occupied : 0.0;
+        areaRows_[k].push_back(AreaRow{t, density, speed, a.sumFlow / n, a.sumPeople / n, fruinLevel(density)});
         a.sumDensity = a.sumSpeed = a.sumFlow = a.sumPeople = 0;
-        a.samples = 0;
+        a.samples = a.occupied = 0;
     }
     intervalStart_ = t;
 }
@@ -214,8 +217,7 @@ std::string MeasurementRecorder::flowsCsv() const {
         for (std::size_t k = 0; k < groups; ++k) {
             const Line& l = k < lines_.size() ? lines_[k] : exits_[k - lines_.size()];
             const FlowRow& row = flowRows_[k][r];
-            const double start = r > 0 ? flowRows_[k][r - 1].time : row.time - interval_;
-            const double span = std::max(1e-12, row.time - start);
+            const double span = std::max(1e-12, row.time - row.start);
             const double flow = (row.forward + row.backward) / span;
             out += number(row.time) + ',' + l.name + ',' + (l.exit ? "exit" : "line") + ',' + std::to_string(row.forward) +
                    ',' + std::to_string(row.backward) + ',' + number(flow) + ',' + number(flow / l.length) + '\n';
@@ -249,6 +251,7 @@ std::vector<VerdictReason> MeasurementRecorder::reasons() const {
             r.unit = "P/(m*s)";
             r.firstTime = l.first;
             r.duration = l.longest;
+            r.people = l.peakCount;  // most people through it within one flow window
             r.place = l.name;
             r.hasWhere = true;
             r.x = 0.5 * (l.a.x() + l.b.x());

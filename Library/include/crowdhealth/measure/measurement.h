@@ -11,7 +11,7 @@
 
 namespace ch {
 
-/// <Line id x1 y1 x2 y2 width?/> in <Measurement>: counts the agents crossing the segment from a to
+/// <Line id x1 y1 x2 y2/> in <Measurement>: counts the agents crossing the segment from a to
 /// b, per direction. "Forward" is across the line towards its right-hand side seen from a looking
 /// at b (the normal (b − a) rotated by −90°); "backward" the other way.
 struct MeasureLineSpec {

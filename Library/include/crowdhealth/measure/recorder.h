@@ -26,8 +26,10 @@ struct AgentStore;
 /// Which side of the line a → b the point p lies on: +1 left (cross product > 0), −1 right or on it.
 int lineSide(const Vec2& a, const Vec2& b, const Vec2& p);
 /// +1 when the move p → q crosses the segment a → b forwards (left to right, towards the normal
-/// (b − a) rotated by −90°), −1 backwards, 0 when it does not cross (a move ending exactly on the
-/// line crosses; one starting on it does not, so a stop on the line counts once).
+/// (b − a) rotated by −90°), −1 backwards, 0 when it does not cross. A point exactly on the line
+/// counts as on its right side, so a stop on the line counts once: forwards, the move onto it
+/// crosses and the move on to the right does not; backwards, the move onto it does not cross and
+/// the move on to the left does.
 int crossing(const Vec2& a, const Vec2& b, const Vec2& p, const Vec2& q);
 
 class MeasurementRecorder {
@@ -56,9 +58,9 @@ public:
     std::string flowsCsv() const;
     /// areas.csv: `time,area,density,speed,specific_flow,los,people` — one row per area per
     /// interval, averages over the records (coarse steps) in the interval: density = people inside
-    /// / area (PedPy's classic method, persons/m²), speed = mean speed of those inside (m/s; 0 when
-    /// empty), specific_flow = mean of density × speed (P/(m·s)), los = Fruin's level of the mean
-    /// density, people = mean count.
+    /// / area (PedPy's classic method, persons/m²), speed = mean speed of those inside over the
+    /// records with someone inside (m/s; 0 when empty throughout), specific_flow = mean of
+    /// density × speed (P/(m·s)), los = Fruin's level of the mean density, people = mean count.
     std::string areasCsv() const;
 
     /// The verdict reasons: an exit or line whose specific flow over the last flow_window seconds
@@ -66,7 +68,7 @@ public:
     std::vector<VerdictReason> reasons() const;
 
     struct FlowRow {
-        double time;
+        double start, time;  ///< s, the interval [start, time]
         int forward, backward;
     };
     struct AreaRow {
@@ -90,6 +92,7 @@ private:
         int forward = 0, backward = 0;  ///< in the interval in progress
         int totalForward = 0, totalBackward = 0;
         std::deque<double> recent;  ///< crossing times within the flow window
+        std::size_t peakCount = 0;  ///< most crossings within one window
         double heldSince = -1, longest = 0, first = -1;  ///< above capacity
         double peak = 0;            ///< highest windowed specific flow (P/(m·s))
     };
@@ -99,7 +102,7 @@ private:
         double area;
         Vec2 lo, hi;
         double sumDensity = 0, sumSpeed = 0, sumFlow = 0, sumPeople = 0;
-        int samples = 0;
+        int samples = 0, occupied = 0;  ///< records in the interval; those with someone inside
         double heldSince = -1, longest = 0, first = -1, peak = 0;
         double peakPeople = 0;
     };
