@@ -286,7 +286,7 @@ std::vector<TestDef> makeTests() {
     t.push_back({"rimea-10", "RiMEA 10: allocation of escape routes", Kind::Criterion, "rimea-10-allocation.xml", "persons", 0,
                  "all 24 leave, each by its allocated exit; value: how many did not",
                  "fixed routes are not followed (people take the nearest exit) or people are stuck",
-                 "RiMEA 4.1.1 test 10", {"SocialForces-venue", "ORCA", "RVO"}, "ORCA", [] { return std::make_unique<AllocationObserver>(); }, ""});
+                 "RiMEA 4.1.1 test 10", {"SocialForces-venue", "ORCA", "RVO"}, "SocialForces-venue", [] { return std::make_unique<AllocationObserver>(); }, ""});
     for (const char* n : {"11", "12"})
         t.push_back({std::string("rimea-") + n,
                      std::string("RiMEA ") + n + (n[1] == '1' ? ": choice of escape route" : ": effect of bottlenecks"),
@@ -302,7 +302,7 @@ std::vector<TestDef> makeTests() {
     t.push_back({"iso-max-flow", "ISO/NIST: maximum flow through a 1 m exit", Kind::Criterion, "iso-max-flow.xml",
                  "P/(m s)", 2, "specific flow (10th to 90th of 100 out) <= 1.33 P/(m s)",
                  "the model lets people through a door faster than the IMO maximum (competitive egress)",
-                 "ISO 20414 / NIST TN 1822", {}, "SocialForces", [] { return std::make_unique<FlowObserver>(); }, ""});
+                 "ISO 20414 / NIST TN 1822", {"ORCA"}, "ORCA", [] { return std::make_unique<FlowObserver>(); }, ""});
     const std::vector<std::pair<std::string, std::string>> pending = {
         {"iso-corridor", "ISO/NIST: speed in a corridor (40 m at 1.0 m/s +-0.05)"},
         {"iso-premovement-ks", "ISO/NIST: premovement distributions (Kolmogorov-Smirnov)"},
