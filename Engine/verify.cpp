@@ -652,7 +652,7 @@ int verifyCommand(int argc, char* argv[]) {
         const auto it = cells.find({k, m});
         if (it == cells.end()) return "not run";
         const Cell& c = it->second;
-        std::string s = c.status == "documented" ? std::string(c.passed == c.seeds ? "documented (meets it)" : "documented (exceeds)")
+        std::string s = c.status == "documented" ? std::string(c.passed == c.seeds ? "documented (meets it)" : "documented (fails it)")
                                                  : c.status;
         if (c.status == "documented" || c.status == "pass" || c.status == "fail") {
             s += " " + fixedNum(c.mean, t.decimals);
@@ -671,7 +671,7 @@ int verifyCommand(int argc, char* argv[]) {
        << (anyError ? ", runs with errors" : "") << ").\n\n"
        << "Each cell: the status and the measured value (mean over the seeds, the range in brackets). "
           "`pass`/`fail`: the criterion is claimed for that model; `documented`: measured and shown, not claimed "
-          "(\"meets it\" / \"exceeds\" says whether the criterion holds); `not run`: left out of this run "
+          "(\"meets it\" / \"fails it\": whether the criterion holds for every seed); `not run`: left out of this run "
           "(`--quick`, `--policy`, `--test`).\n\n";
     md << "| test |";
     for (const std::string& m : models) md << " " << m << " |";
