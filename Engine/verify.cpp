@@ -229,7 +229,7 @@ public:
 
 enum class Kind { Criterion, OutOfScope, Pending };
 
-const std::vector<std::string> kModels = {"SocialForces", "SocialForces-venue", "ORCA", "RVO"};
+const std::vector<std::string> kModels = {"SocialForces", "SocialForces-venue", "ORCA", "RVO", "Karamouzas", "PowerLaw"};
 
 struct TestDef {
     std::string id;           ///< --test ID, e.g. "rimea-1"
@@ -286,7 +286,7 @@ std::vector<TestDef> makeTests() {
     t.push_back({"rimea-10", "RiMEA 10: allocation of escape routes", Kind::Criterion, "rimea-10-allocation.xml", "persons", 0,
                  "all 24 leave, each by its allocated exit; value: how many did not",
                  "fixed routes are not followed (people take the nearest exit) or people are stuck",
-                 "RiMEA 4.1.1 test 10", {"SocialForces-venue", "ORCA", "RVO"}, "SocialForces-venue", [] { return std::make_unique<AllocationObserver>(); }, ""});
+                 "RiMEA 4.1.1 test 10", {"SocialForces-venue", "ORCA", "RVO", "Karamouzas", "PowerLaw"}, "SocialForces-venue", [] { return std::make_unique<AllocationObserver>(); }, ""});
     for (const char* n : {"11", "12"})
         t.push_back({std::string("rimea-") + n,
                      std::string("RiMEA ") + n + (n[1] == '1' ? ": choice of escape route" : ": effect of bottlenecks"),
