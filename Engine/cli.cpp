@@ -98,6 +98,7 @@ void printHelp(std::ostream& out) {
            "       crowdhealth -i SCENARIO -o OUTDIR --replications N [-t THREADS] [--seed S]\n"
            "       crowdhealth -i SCENARIO --check\n"
            "       crowdhealth plot DIR | compare DIR... [-o OUTDIR]   (see 'crowdhealth plot --help')\n"
+           "       crowdhealth verify [-o DIR] [--quick] [--policy NAME...] [--test ID...] [--jobs N]\n"
            "       crowdhealth --list-policies [--format text|markdown]\n\n"
            "Runs a CrowdHealth (UMANS-compatible) crowd scenario and writes metrics.csv,\n"
            "evacuations.csv, summary.json and optionally trajectories to OUTDIR.\n"

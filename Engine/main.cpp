@@ -7,6 +7,7 @@
 #include "plot.h"
 #include "render.h"
 #include "run.h"
+#include "verify.h"
 
 #include <exception>
 #include <iostream>
@@ -20,6 +21,8 @@ int main(int argc, char* argv[]) {
         // `crowdhealth plot DIR` and `crowdhealth compare DIR…` too (plot.h, compare.h, docs/crowd-health.md).
         if (argc > 1 && std::string_view(argv[1]) == "plot") return plotCommand(argc - 1, argv + 1);
         if (argc > 1 && std::string_view(argv[1]) == "compare") return compareCommand(argc - 1, argv + 1);
+        // `crowdhealth verify …`: the verification tests for every model (verify.h, docs/verification.md).
+        if (argc > 1 && std::string_view(argv[1]) == "verify") return verifyCommand(argc - 1, argv + 1);
         const std::optional<Options> options = parseCommandLine(argc, argv, std::cerr);
         if (!options) return kExitInput;
         switch (options->command) {
