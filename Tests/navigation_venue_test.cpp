@@ -7,6 +7,7 @@
 
 #include "crowdhealth/core/simulation.h"
 #include "crowdhealth/io/xml.h"
+#include "scenario_files.h"
 
 #include <cstdlib>
 #include <filesystem>
@@ -18,42 +19,11 @@
 
 using namespace ch;
 namespace fs = std::filesystem;
+using test::Loaded;
+using test::load;
+using test::scratch;
 
 namespace {
-
-/// A folder of this test's own under the system's temporary folder (removed at exit).
-const fs::path& scratch() {
-    static const fs::path dir = [] {
-        std::string templ = (fs::temp_directory_path() / "ch-venue-XXXXXX").string();
-        if (mkdtemp(templ.data()) == nullptr) throw std::runtime_error("mkdtemp failed");
-        return fs::path(templ);
-    }();
-    static const struct Cleanup {
-        ~Cleanup() {
-            std::error_code ec;
-            fs::remove_all(dir, ec);
-        }
-    } cleanup;
-    return dir;
-}
-
-struct Loaded {
-    std::optional<ScenarioSpec> spec;
-    std::string messages;  ///< every diagnostic, one per line
-    std::string path;
-};
-
-Loaded load(const std::string& name, const std::string& xml) {
-    Loaded out;
-    out.path = (scratch() / name).string();
-    std::ofstream(out.path) << xml;
-    Diagnostics d;
-    out.spec = loadScenario(out.path, d, {});
-    std::ostringstream m;
-    d.print(m);
-    out.messages = m.str();
-    return out;
-}
 
 /// Social forces as UMANS' SocialForces.xml, with UMANS' contact.
 const char* kPolicy = R"(

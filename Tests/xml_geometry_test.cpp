@@ -11,6 +11,7 @@
 #include "crowdhealth/core/simulation.h"
 #include "crowdhealth/core/world.h"
 #include "crowdhealth/io/xml.h"
+#include "scenario_files.h"
 
 #include <algorithm>
 #include <cmath>
@@ -23,23 +24,11 @@
 
 using namespace ch;
 namespace fs = std::filesystem;
+using test::Loaded;
+using test::load;
+using test::scratch;
 
 namespace {
-
-const fs::path& scratch() {
-    static const fs::path dir = [] {
-        std::string templ = (fs::temp_directory_path() / "ch-geometry-XXXXXX").string();
-        if (mkdtemp(templ.data()) == nullptr) throw std::runtime_error("mkdtemp failed");
-        return fs::path(templ);
-    }();
-    static const struct Cleanup {
-        ~Cleanup() {
-            std::error_code ec;
-            fs::remove_all(dir, ec);
-        }
-    } cleanup;
-    return dir;
-}
 
 void writeFile(const std::string& name, const std::string& text) { std::ofstream(scratch() / name, std::ios::binary) << text; }
 
@@ -131,23 +120,6 @@ std::string scenario(const std::string& obstacles, const std::string& more = "",
            "</World>\n" + kPolicy + "\n<Agents>\n" + agents + "</Agents>\n</Simulation>\n";
 }
 
-struct Loaded {
-    std::optional<ScenarioSpec> spec;
-    std::string messages;
-    std::string path;
-};
-
-Loaded load(const std::string& name, const std::string& xml) {
-    Loaded out;
-    out.path = (scratch() / name).string();
-    std::ofstream(out.path) << xml;
-    Diagnostics d;
-    out.spec = loadScenario(out.path, d, {});
-    std::ostringstream m;
-    d.print(m);
-    out.messages = m.str();
-    return out;
-}
 
 bool has(const std::string& text, const std::string& needle) { return text.find(needle) != std::string::npos; }
 
