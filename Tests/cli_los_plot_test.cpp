@@ -22,10 +22,7 @@ using namespace clitest;
 
 namespace {
 
-void write(const fs::path& file, const std::string& text) {
-    fs::create_directories(file.parent_path());
-    std::ofstream(file) << text;
-}
+void write(const fs::path& file, const std::string& text) { writeText(file, text); }
 
 // Fruin's colours of levels A and F (plot_measure_data.cpp) and the measurement's magenta
 // (plot_venue.h), the walls' dark grey.

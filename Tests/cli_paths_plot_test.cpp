@@ -17,10 +17,7 @@ using namespace clitest;
 
 namespace {
 
-void write(const fs::path& file, const std::string& text) {
-    fs::create_directories(file.parent_path());
-    std::ofstream(file) << text;
-}
+void write(const fs::path& file, const std::string& text) { writeText(file, text); }
 
 // The colours of plot.cpp's palette (seriesColour) for the first two exits, and of "no exit".
 constexpr std::uint32_t kFirstExit = 0x1f77b4, kSecondExit = 0xff7f0e, kNoExit = 0xa0a0a0;

@@ -24,10 +24,7 @@ namespace {
 
 // ---- fake run folders ----
 
-void write(const fs::path& file, const std::string& text) {
-    fs::create_directories(file.parent_path());
-    std::ofstream(file) << text;
-}
+void write(const fs::path& file, const std::string& text) { writeText(file, text); }
 
 std::string num(double v) {
     std::ostringstream s;

@@ -39,6 +39,12 @@ inline std::string readFile(const fs::path& p) {
 
 /// A new, empty folder for one test case: <cwd>/cli-test-tmp/<name> (the cwd of a ctest test is
 /// its build folder, so nothing is written into the sources).
+/// Writes `text` to `file`, creating its folder.
+inline void writeText(const fs::path& file, const std::string& text) {
+    fs::create_directories(file.parent_path());
+    std::ofstream(file) << text;
+}
+
 inline fs::path freshDir(const std::string& name) {
     const fs::path d = fs::current_path() / "cli-test-tmp" / name;
     fs::remove_all(d);
