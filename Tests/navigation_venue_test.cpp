@@ -565,3 +565,18 @@ BOOST_AUTO_TEST_CASE(an_agent_placed_inside_an_obstacle_is_an_error_with_navigat
     const std::string xml = simulation(world, "<AgentGrid x=\"1\" y=\"1\" columns=\"8\" rows=\"8\" spacing=\"1\" journey=\"j\"><Policy id=\"0\"/></AgentGrid>\n");
     expectError("inside.xml", xml, "<AgentGrid", "starts inside an obstacle");
 }
+
+BOOST_AUTO_TEST_CASE(an_infinite_worlds_grid_reaches_every_plain_goal_and_start) {
+    // The only wall spans x = 10; the start and the goal lie 20 m either side of it, beyond the
+    // wall's bounds plus the 5 m margin: the grid must still hold them (navigationBounds).
+    // A second person, on a journey, starts as far out and leaves by an exit 20 m beyond the wall.
+    const std::string world = "<World type=\"Infinite\">\n<Navigation/>\n" + wall(10, -3, 10, 3) +
+                              "<Exit id=\"far\" x=\"30\" y=\"4\" radius=\"0.5\"/>\n<Journey id=\"j\" leave_by=\"far\"/>\n</World>\n";
+    const std::string agents = "<Agent rad=\"0.25\" remove_at_goal=\"true\" goal_radius=\"0.5\"><pos x=\"-10\" y=\"0\"/>"
+                               "<goal x=\"30\" y=\"0\"/><Policy id=\"0\"/></Agent>\n"
+                               "<Agent rad=\"0.25\" journey=\"j\"><pos x=\"-10\" y=\"4\"/><Policy id=\"0\"/></Agent>\n";
+    const Loaded l = load("far.xml", simulation(world, agents, 60));
+    BOOST_REQUIRE_MESSAGE(l.spec, l.messages);
+    const Outcome o = runScenario(*l.spec);
+    BOOST_TEST(o.timeOf.size() == 2u);
+}

@@ -4,6 +4,7 @@
 #include "crowdhealth/core/world.h"
 #include "crowdhealth/io/output.h"
 #include "crowdhealth/navigation/field.h"
+#include "crowdhealth/navigation/navigation.h"
 
 #include "xml_internal.h"
 
@@ -581,35 +582,7 @@ void checkVenue(LoadContext& ctx) {
     // Geometry: targets on walkable floor, agents able to reach their targets.
     if (venue.navigation) {
         const World world(spec.world, spec.obstacles);
-        Vec2 lo, hi;
-        if (spec.world.type == WorldType::Planar) {
-            lo = Vec2(spec.world.xmin, spec.world.ymin);
-            hi = Vec2(spec.world.xmax, spec.world.ymax);
-        } else {
-            // The same bounds Navigation uses (navigation.cpp): everything named plus the margin.
-            lo = Vec2(kInf, kInf);
-            hi = Vec2(-kInf, -kInf);
-            auto grow = [&](const Vec2& p) {
-                lo = lo.cwiseMin(p);
-                hi = hi.cwiseMax(p);
-            };
-            for (const ObstacleSpec& o : spec.obstacles)
-                for (const Vec2& p : o.points) grow(p);
-            for (const TargetSpec& t : venue.targets) {
-                const auto b = t.shape.bounds();
-                grow(b.first);
-                grow(b.second);
-            }
-            for (const AgentSpec& a : spec.agents) {
-                grow(a.position);
-                if (a.goal) grow(*a.goal);
-            }
-            for (const SourceSpec& s : venue.sources)
-                for (const Vec2& p : s.area) grow(p);
-            if (!std::isfinite(lo.x())) lo = hi = Vec2(0, 0);
-            lo -= Vec2(venue.navigation->margin, venue.navigation->margin);
-            hi += Vec2(venue.navigation->margin, venue.navigation->margin);
-        }
+        const auto [lo, hi] = navigationBounds(spec);  // the grid the simulation will build
         // Memory: the grid (9 bytes per cell) and one field per target and distinct goal (4 bytes
         // per cell, and 13 more per cell while one is being built) must fit.
         const double h = venue.navigation->grid.cellSize;

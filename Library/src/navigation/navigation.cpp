@@ -56,6 +56,7 @@ Navigation::Navigation(const ScenarioSpec& spec, const World& world) : spec_(spe
         targets_.push_back(std::move(target));
     }
     open_.assign(targets_.size(), 1);
+    for (const ExitSetSpec& e : venue.exitSets) quickest_ = quickest_ || e.choice == ExitChoice::Quickest;
     for (const JourneySpec& j : venue.journeys) {
         exitSetOf_.push_back(j.leaveBy.empty() ? -1 : venue.exitSetIndex(j.leaveBy));
         leaveExitOf_.push_back(j.leaveBy.empty() || exitSetOf_.back() >= 0 ? -1 : venue.targetIndex(j.leaveBy));
@@ -82,41 +83,14 @@ Navigation::Navigation(const ScenarioSpec& spec, const World& world) : spec_(spe
     // Plain goals navigate too: one point target per distinct goal.
     for (const AgentSpec& a : spec.agents)
         if (a.journey.empty() && a.goal && goalTarget(*a.goal) < 0) {
+            goalIndex_.emplace(std::make_pair(a.goal->x(), a.goal->y()), static_cast<int>(targets_.size()));
             Target target;
             target.shape.kind = TargetShape::Kind::Point;
             target.shape.point = *a.goal;
             targets_.push_back(std::move(target));
         }
 
-    // The grid: a planar world's bounds; otherwise everything named, with a margin.
-    Vec2 lo, hi;
-    if (world.type() == WorldType::Planar) {
-        const WorldSpec& w = spec.world;
-        lo = Vec2(w.xmin, w.ymin);
-        hi = Vec2(w.xmax, w.ymax);
-    } else {
-        lo = Vec2(kInf, kInf);
-        hi = Vec2(-kInf, -kInf);
-        auto grow = [&](const Vec2& p) {
-            lo = lo.cwiseMin(p);
-            hi = hi.cwiseMax(p);
-        };
-        for (const ObstacleSpec& o : spec.obstacles)
-            for (const Vec2& p : o.points) grow(p);
-        for (const Target& t : targets_) {
-            const auto b = t.shape.bounds();
-            grow(b.first);
-            grow(b.second);
-        }
-        for (const AgentSpec& a : spec.agents)
-            if (a.source < 0) grow(a.position);
-        for (const SourceSpec& s : venue.sources)
-            for (const Vec2& p : s.area) grow(p);
-        if (!std::isfinite(lo.x())) lo = hi = Vec2(0, 0);
-        const double m = venue.navigation->margin;
-        lo -= Vec2(m, m);
-        hi += Vec2(m, m);
-    }
+    const auto [lo, hi] = navigationBounds(spec);
     grid_ = std::make_unique<WalkableGrid>(world, venue.navigation->grid, lo, hi);
     fields_.resize(targets_.size());
     const std::ptrdiff_t n = static_cast<std::ptrdiff_t>(targets_.size());
@@ -137,9 +111,36 @@ Navigation::Navigation(const ScenarioSpec& spec, const World& world) : spec_(spe
 Navigation::~Navigation() = default;
 
 int Navigation::goalTarget(const Vec2& goal) const {
-    for (std::size_t k = spec_.venue.targets.size(); k < targets_.size(); ++k)
-        if (targets_[k].shape.point == goal) return static_cast<int>(k);
-    return -1;
+    const auto it = goalIndex_.find({goal.x(), goal.y()});
+    return it == goalIndex_.end() ? -1 : it->second;
+}
+
+std::pair<Vec2, Vec2> navigationBounds(const ScenarioSpec& spec) {
+    if (spec.world.type == WorldType::Planar)
+        return {Vec2(spec.world.xmin, spec.world.ymin), Vec2(spec.world.xmax, spec.world.ymax)};
+    Vec2 lo(kInf, kInf), hi(-kInf, -kInf);
+    auto grow = [&](const Vec2& p) {
+        lo = lo.cwiseMin(p);
+        hi = hi.cwiseMax(p);
+    };
+    for (const ObstacleSpec& o : spec.obstacles)
+        for (const Vec2& p : o.points) grow(p);
+    for (const TargetSpec& t : spec.venue.targets) {
+        const auto b = t.shape.bounds();
+        grow(b.first);
+        grow(b.second);
+    }
+    for (const AgentSpec& a : spec.agents) {
+        if (a.source < 0) grow(a.position);  // a source's agents: its area, below
+        if (a.journey.empty() && a.goal) grow(*a.goal);
+    }
+    for (const SourceSpec& s : spec.venue.sources) {
+        for (const Vec2& p : s.area) grow(p);
+        if (s.goal) grow(*s.goal);
+    }
+    if (!std::isfinite(lo.x())) lo = hi = Vec2(0, 0);
+    const double m = spec.venue.navigation ? spec.venue.navigation->margin : NavigationSpec{}.margin;
+    return {lo - Vec2(m, m), hi + Vec2(m, m)};
 }
 
 Vec2 Navigation::directionTo(int target, const Vec2& p, double& distance) const {
@@ -368,12 +369,16 @@ void Navigation::update(AgentStore& a, double t, std::uint64_t seed) {
         if (a.target[i] >= 0) a.navDir[i] = directionTo(a.target[i], a.pos[i], a.navDistance[i]);
     }
 
-    // Per exit: the remaining distances of the people heading there, sorted (quickest rule).
-    queues_.assign(targets_.size(), {});
-    for (std::size_t i = 0; i < n; ++i)
-        if (a.journey[i] >= 0 && leaving(a, i) && a.target[i] >= 0)
-            queues_[static_cast<std::size_t>(a.target[i])].push_back(a.navDistance[i]);
-    for (auto& q : queues_) std::sort(q.begin(), q.end());
+    // Per exit: the remaining distances of the people heading there, sorted (the quickest rule's
+    // only input; not gathered in venues without it). Storage is kept from step to step.
+    if (quickest_) {
+        queues_.resize(targets_.size());
+        for (auto& q : queues_) q.clear();
+        for (std::size_t i = 0; i < n; ++i)
+            if (a.journey[i] >= 0 && leaving(a, i) && a.target[i] >= 0)
+                queues_[static_cast<std::size_t>(a.target[i])].push_back(a.navDistance[i]);
+        for (auto& q : queues_) std::sort(q.begin(), q.end());
+    }
 
     // 3. Dwell ends, arrivals, exit choices (serial, in agent order, on the state of 2).
     for (std::size_t i = 0; i < n; ++i) {

@@ -24,10 +24,17 @@
 #include "crowdhealth/navigation/field.h"
 
 #include <cstdint>
+#include <map>
 #include <memory>
+#include <utility>
 #include <vector>
 
 namespace ch {
+
+/// The rectangle (lo, hi) the navigation grid covers: a planar world's bounds; otherwise every
+/// obstacle, target, agent start, plain goal and source area, with <Navigation margin>. The loader
+/// checks reachability on the same grid the simulation builds.
+std::pair<Vec2, Vec2> navigationBounds(const ScenarioSpec& spec);
 
 class Navigation {
 public:
@@ -86,6 +93,7 @@ private:
     std::unique_ptr<WalkableGrid> grid_;
     std::vector<Target> targets_;        ///< venue targets, then one point per distinct agent goal
     std::vector<DistanceField> fields_;  ///< per target (empty without <Navigation>)
+    std::map<std::pair<double, double>, int> goalIndex_;  ///< distinct plain goal → its target
     std::vector<unsigned char> open_;    ///< per venue target: exits open/closed
     std::size_t nextEvent_ = 0;
     std::vector<int> eventOrder_;        ///< exit events by time (stable)
@@ -93,6 +101,7 @@ private:
     std::vector<int> leaveExitOf_;       ///< per journey: its single exit (-1 none)
     std::vector<Service> services_;
     std::vector<std::vector<double>> queues_;  ///< per target: sorted distances of those heading there
+    bool quickest_ = false;                    ///< some exit set chooses by the quickest rule
     double prepSeconds_ = 0;
 
     int goalTarget(const Vec2& goal) const;
