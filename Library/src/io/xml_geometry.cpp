@@ -482,34 +482,30 @@ public:
     }
 
     void addArc(const DL_ArcData& d) override {
-        if (!take()) return;
-        Shape s = shapeOf(pending_);
-        bool mirror = false;
-        if (!planView(s, mirror)) return;
-        if (!(d.radius > 0)) {
-            ctx_.diags.warning(s.loc, s.describe() + ": radius " + formatNumber(d.radius) + " is not positive; ignored");
-            return;
-        }
         double a0 = d.angle1 * M_PI / 180.0, a1 = d.angle2 * M_PI / 180.0;
         double sweep = std::fmod(a1 - a0, 2 * M_PI);
         if (sweep <= 0) sweep += 2 * M_PI;
-        s.pts = arcPoints(Vec2(d.cx, d.cy), d.radius, a0, sweep, tol_, 1);
-        if (mirror) for (Vec2& p : s.pts) p.x() = -p.x();
-        push(std::move(s));
+        addCurve(Vec2(d.cx, d.cy), d.radius, a0, sweep, false);
     }
 
-    void addCircle(const DL_CircleData& d) override {
+    void addCircle(const DL_CircleData& d) override { addCurve(Vec2(d.cx, d.cy), d.radius, 0, 2 * M_PI, true); }
+
+    /// An ARC (open) or a CIRCLE (closed) as chords: the entity's shape, mirrored when its
+    /// extrusion points down.
+    void addCurve(const Vec2& centre, double radius, double a0, double sweep, bool circle) {
         if (!take()) return;
         Shape s = shapeOf(pending_);
         bool mirror = false;
         if (!planView(s, mirror)) return;
-        if (!(d.radius > 0)) {
-            ctx_.diags.warning(s.loc, s.describe() + ": radius " + formatNumber(d.radius) + " is not positive; ignored");
+        if (!(radius > 0)) {
+            ctx_.diags.warning(s.loc, s.describe() + ": radius " + formatNumber(radius) + " is not positive; ignored");
             return;
         }
-        s.pts = arcPoints(Vec2(d.cx, d.cy), d.radius, 0, 2 * M_PI, tol_, 8);
-        s.pts.pop_back();  // the last point repeats the first
-        s.closed = true;
+        s.pts = arcPoints(centre, radius, a0, sweep, tol_, circle ? 8 : 1);
+        if (circle) {
+            s.pts.pop_back();  // the last point repeats the first
+            s.closed = true;
+        }
         if (mirror) for (Vec2& p : s.pts) p.x() = -p.x();
         push(std::move(s));
     }
