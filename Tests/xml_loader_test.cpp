@@ -424,7 +424,7 @@ BOOST_AUTO_TEST_CASE(every_error_is_reported_with_file_and_line) {
         {8, "error: unknown attribute 'strenght' on <costfunction> (did you mean 'strength'?)"},
         {28, "error: unknown element <colour> in <Agent> (did you mean 'color'?)"},
         {24, "error: unknown attribute 'raduis' on <Agent>; allowed: id, rad, pref_speed, max_speed, "
-             "max_acceleration, mass, remove_at_goal, start_time, goal_radius, premovement, journey"},
+             "max_acceleration, mass, remove_at_goal, start_time, goal_radius, premovement, journey, group"},
         // Bad words.
         {6, "error: Policy@OptimizationMethod: 'gradiant' is not one of: gradient, sampling, global "
             "(did you mean 'gradient'?)"},

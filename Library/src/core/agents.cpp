@@ -38,6 +38,7 @@ std::size_t AgentStore::add(const AgentSpec& s, int policyIndex, int recordIndex
     holdUntil.push_back(0.0);
     navFlags.push_back(0);
     nextChoice.push_back(0.0);
+    group.push_back(s.groupIndex);
     return id.size() - 1;
 }
 

@@ -759,6 +759,32 @@ void assignAgentIds(LoadContext& ctx) {
     }
 }
 
+/// Social groups: each distinct Agent@group name (and each group of an AgentGrid@group_size) gets
+/// an index, in the order of its first member. A group of one is a warning (that agent walks as a
+/// group of one: nobody to keep together with); more members than a group holds is an error.
+void assignGroups(LoadContext& ctx) {
+    constexpr std::size_t kMaxMembers = 10;  // AgentGrid@group_size's upper bound too
+    std::map<std::string, int> index;
+    std::vector<std::size_t> members;
+    std::vector<SourceLoc> firstLoc;
+    for (AgentSpec& a : ctx.spec.agents) {
+        if (a.group.empty()) continue;
+        auto [it, inserted] = index.emplace(a.group, static_cast<int>(ctx.spec.groups.size()));
+        if (inserted) {
+            ctx.spec.groups.push_back(a.group);
+            members.push_back(0);
+            firstLoc.push_back(a.loc);
+        }
+        a.groupIndex = it->second;
+        if (++members[static_cast<std::size_t>(it->second)] == kMaxMembers + 1)
+            ctx.diags.error(a.loc, "group '" + a.group + "' has more than " + std::to_string(kMaxMembers) +
+                                       " members (social groups of 2-5 walk together; a larger party is several groups)");
+    }
+    for (std::size_t g = 0; g < members.size(); ++g)
+        if (members[g] == 1)
+            ctx.diags.warning(firstLoc[g], "group '" + ctx.spec.groups[g] + "' has one member: nobody to walk with");
+}
+
 void checkPolicyRefs(LoadContext& ctx) {
     if (ctx.policiesIncomplete) return;  // already reported: the policies file could not be read
     std::string known;
@@ -885,6 +911,7 @@ std::optional<ScenarioSpec> loadScenario(const std::string& path, Diagnostics& d
 
     checkVenue(ctx);
     assignAgentIds(ctx);
+    assignGroups(ctx);
     checkPolicyRefs(ctx);
     checkSchedule(ctx);
     checkWallModels(ctx);

@@ -16,6 +16,9 @@ double autoMass(double radius) { return (radius / 0.24) * (radius / 0.24); }
 /// Upper bound on generated agents, so a typo such as rows="1e9" fails cleanly instead of
 /// exhausting memory.
 constexpr double kMaxGeneratedAgents = 1e7;
+/// Members of one social group at most (families and friends walking together: 2-5 in
+/// Moussaïd et al. 2010; larger parties are allowed up to this).
+constexpr int kMaxGroupSize = 10;
 
 // Agent attribute ranges. Speeds up to 20 m/s catch unit mistakes (km/h) without rejecting
 // anything a pedestrian model needs; max_acceleration is unbounded because van Toll's profiles
@@ -95,6 +98,8 @@ const ParamTable& agentGridTable() {
             goalRadiusParam(),
             startTimeParam("start_time"),
             premovementParam(),
+            ParamSpec::integer("group_size", 0, 0, kMaxGroupSize,
+                               "consecutive agents (row by row) walking as one social group; 0: everyone alone"),
         };
         table[4].minExclusive = true;
         return table;
@@ -163,7 +168,7 @@ GeneratorChildren readGeneratorChildren(LoadContext& ctx, const std::string& fil
 }  // namespace
 
 void readAgent(LoadContext& ctx, const std::string& file, const XMLElement* el) {
-    ElementReader r(ctx, file, el, "Agent", agentTable(), {"journey"});
+    ElementReader r(ctx, file, el, "Agent", agentTable(), {"journey", "group"});
     AgentSpec a;
     a.loc = r.loc();
     const std::optional<double> id = r.optional("id");
@@ -182,6 +187,10 @@ void readAgent(LoadContext& ctx, const std::string& file, const XMLElement* el) 
     a.premovement = r.value("premovement");
     a.journey = r.text("journey").value_or("");
     if (!a.journey.empty()) ctx.journeyRefs.push_back({a.journey, r.loc("journey")});
+    if (std::optional<std::string> g = r.text("group")) {
+        if (g->empty()) r.error(r.loc("group"), "Agent@group: empty group name (leave the attribute out for an agent walking alone)");
+        a.group = *g;
+    }
 
     const XMLElement *pos = nullptr, *goal = nullptr, *policy = nullptr, *color = nullptr;
     for (const XMLElement* c = el->FirstChildElement(); c != nullptr; c = c->NextSiblingElement()) {
@@ -252,6 +261,10 @@ void readAgentGrid(LoadContext& ctx, const std::string& file, const XMLElement* 
     const GeneratorChildren children = readGeneratorChildren(ctx, file, el, !proto.journey.empty());
     if (children.policy) proto.policyId = *children.policy;
     proto.goal = children.goal;
+    const int groupSize = static_cast<int>(r.value("group_size"));
+    if (groupSize == 1)
+        r.error(r.loc("group_size"), "AgentGrid@group_size: 1 is not a group (0: everyone walks alone; groups have 2-" +
+                                         std::to_string(kMaxGroupSize) + " members)");
     if (!x || !y || !columns || !rows || r.failed()) return;
     if (*columns * *rows > kMaxGeneratedAgents) {
         r.error(r.loc(), "AgentGrid: " + *r.text("columns") + " x " + *r.text("rows") +
@@ -268,6 +281,13 @@ void readAgentGrid(LoadContext& ctx, const std::string& file, const XMLElement* 
             a.position = Vec2(*x + col * spacing, *y + row * spacing);
             a.radius = rng.uniform(radMin, radMax);
             a.mass = autoMass(a.radius);
+            // Groups of consecutive agents; the last may be smaller, and one left over walks alone.
+            if (groupSize >= 2) {
+                const std::uint64_t total = static_cast<std::uint64_t>(nc) * static_cast<std::uint64_t>(nr);
+                const std::uint64_t first = k - k % static_cast<std::uint64_t>(groupSize);
+                if (total - first >= 2)
+                    a.group = "AgentGrid" + std::to_string(generator) + "." + std::to_string(k / static_cast<std::uint64_t>(groupSize));
+            }
             addAgent(ctx, std::move(a), false, r.loc());
         }
     }

@@ -49,6 +49,9 @@ struct AgentStore {
     std::vector<unsigned char> navFlags;  ///< Navigation's per-agent flags (admitted, in service …)
     std::vector<double> nextChoice;   ///< s, next re-evaluation of a quickest exit choice
 
+    // social groups (ScenarioSpec::groups)
+    std::vector<int> group;           ///< index into ScenarioSpec::groups, -1: walks alone
+
     std::size_t size() const { return id.size(); }
     bool empty() const { return id.empty(); }
 
@@ -71,6 +74,7 @@ struct AgentStore {
         f(maxAcceleration), f(mass), f(goalRadius), f(removeAtGoal), f(hasGoal), f(goal);
         f(pos), f(vel), f(prefVel), f(viewDir), f(density), f(contactAccel);
         f(journey), f(stage), f(target), f(navDistance), f(navDir), f(holdUntil), f(navFlags), f(nextChoice);
+        f(group);
     }
 };
 

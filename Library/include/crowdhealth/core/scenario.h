@@ -170,6 +170,10 @@ struct AgentSpec {
     /// Index into VenueSpec::sources for an agent a source creates: its position is chosen when it
     /// arrives (Navigation::place); -1 for every other agent.
     int source = -1;
+    /// The agent's social group (Agent@group, or AgentGrid@group_size); empty: walks alone.
+    std::string group;
+    /// Index of `group` in ScenarioSpec::groups (set by the loader); -1: no group.
+    int groupIndex = -1;
     SourceLoc loc;
 };
 
@@ -244,6 +248,8 @@ struct ScenarioSpec {
     std::vector<ObstacleSpec> obstacles;
     std::vector<PolicySpec> policies;
     std::vector<AgentSpec> agents;
+    /// The social groups' names, in the order of their first member (AgentSpec::groupIndex).
+    std::vector<std::string> groups;
     std::vector<RampSpec> ramps;             ///< <Schedule><Ramp>, in file order
     std::vector<PanicEventSpec> panicEvents; ///< <Schedule><PanicEvent>, in file order
     OutputSpec output;
