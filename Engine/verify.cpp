@@ -49,7 +49,7 @@
 namespace chverify {
 
 const std::vector<std::string>& modelNames() {
-    static const std::vector<std::string> names = {"SocialForces", "SocialForces-venue", "ORCA", "RVO", "Karamouzas", "PowerLaw"};
+    static const std::vector<std::string> names = {"SocialForces", "SocialForces-venue", "ORCA", "RVO", "Karamouzas", "PowerLaw", "SPH"};
     return names;
 }
 

@@ -30,15 +30,21 @@ std::string modelColour(const std::string& model) {
     return chplot::seriesColour(it == names.end() ? names.size() : static_cast<std::size_t>(it - names.begin()));
 }
 
-std::string drawChart(const Chart& chart, const std::filesystem::path& png) {
-    chplot::GnuplotJob job;
+namespace {
+
+/// The commands and data of one chart (one `plot`) into `job`; the number of series drawn. Every
+/// setting a chart may change is set, so that charts of one multiplot do not inherit each other's.
+std::size_t addChart(chplot::GnuplotJob& job, const Chart& chart) {
     job.cmd("set title " + chplot::gpString(chart.title) + " noenhanced font ',14'");
     job.cmd("set xlabel " + chplot::gpString(chart.xlabel) + " noenhanced");
     job.cmd("set ylabel " + chplot::gpString(chart.ylabel) + " noenhanced");
     job.cmd("set grid lc rgb '#d0d0d0'");
     job.cmd(chart.keyPosition == "off" ? "set key off" : "set key " + chart.keyPosition + " noenhanced box opaque");
     if (chart.xrange) job.cmd("set xrange [" + std::to_string(chart.xrange->first) + ":" + std::to_string(chart.xrange->second) + "]");
+    else job.cmd("set autoscale x");
     if (chart.yrange) job.cmd("set yrange [" + std::to_string(chart.yrange->first) + ":" + std::to_string(chart.yrange->second) + "]");
+    else job.cmd("set autoscale y");
+    job.cmd(chart.equalAxes ? "set size ratio -1" : "set size noratio");
     std::string plot;
     std::size_t drawn = 0;
     for (std::size_t i = 0; i < chart.series.size(); ++i) {
@@ -47,11 +53,36 @@ std::string drawChart(const Chart& chart, const std::filesystem::path& png) {
         const std::string colour = s.colour.empty() ? chplot::seriesColour(i) : s.colour;
         plot += std::string(drawn++ ? ", " : "plot ") + "'-' " + withStyle(s, colour) + " title " + chplot::gpString(s.title);
     }
-    if (!drawn) return "nothing to draw";
+    if (!drawn) return 0;
     job.cmd(plot);
     for (const ChartSeries& s : chart.series)
         if (!s.points.empty()) job.data(s.points);
+    return drawn;
+}
+
+}  // namespace
+
+std::string drawChart(const Chart& chart, const std::filesystem::path& png) {
+    chplot::GnuplotJob job;
+    if (!addChart(job, chart)) return "nothing to draw";
     return chplot::drawPng(job, chplot::pngTerminal(1000, 650), png);
+}
+
+std::string drawChartGrid(const std::vector<Chart>& charts, std::size_t columns, const std::string& title,
+                          const std::filesystem::path& png, int width, int height) {
+    if (charts.empty() || columns == 0) return "nothing to draw";
+    const std::size_t rows = (charts.size() + columns - 1) / columns;
+    chplot::GnuplotJob job;
+    job.cmd("set multiplot layout " + std::to_string(rows) + "," + std::to_string(columns) + " title " +
+            chplot::gpString(title) + " noenhanced font ',15'");
+    std::size_t drawn = 0;
+    for (const Chart& c : charts) {
+        const std::size_t n = addChart(job, c);
+        if (!n) job.cmd("set multiplot next");
+        drawn += n;
+    }
+    if (!drawn) return "nothing to draw";
+    return chplot::drawPng(job, chplot::pngTerminal(width, height), png);
 }
 
 std::optional<Spread> spreadOf(const std::vector<double>& v) {

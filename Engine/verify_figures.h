@@ -28,10 +28,17 @@ struct Chart {
     std::vector<ChartSeries> series;
     std::optional<std::pair<double, double>> xrange, yrange;
     std::string keyPosition = "top right";  ///< gnuplot `set key` position, or "off"
+    bool equalAxes = false;  ///< one metre is as long on both axes (trajectories, plans)
 };
 
 /// Draws `chart` into `png` (1000 × 650); "" on success, else an error (e.g. no gnuplot).
 std::string drawChart(const Chart& chart, const std::filesystem::path& png);
+
+/// Small multiples: `charts` side by side, `columns` to a row (as many rows as needed), under one
+/// `title`, in one PNG of width × height; "" on success, else an error. A chart without series
+/// leaves its place empty.
+std::string drawChartGrid(const std::vector<Chart>& charts, std::size_t columns, const std::string& title,
+                          const std::filesystem::path& png, int width = 1400, int height = 1000);
 
 /// The colour of a model in every figure (its place in modelNames()); data and references use
 /// black and greys.

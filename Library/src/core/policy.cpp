@@ -76,6 +76,8 @@ Vec2 PolicyStep::bestVelocitySampling(const AgentQuery& q, const StepContext& ct
         }
     };
 
+    // The preferred velocity first, so that among equal costs it wins (strict < below).
+    if (s.includePreferredAsSample) consider(q.prefVelocity);
     if (s.type == SamplingSpec::Type::Random) {
         Rng rng = ctx.rng(q, kStreamSampling);
         if (s.includeBaseAsSample) consider(base);

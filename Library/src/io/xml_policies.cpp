@@ -30,6 +30,8 @@ ParamTable samplingParams() {
         ParamSpec::integer("AngleSamples", d.angleSamples, 1, 1e300, "regular sampling: directions per ring"),
         ParamSpec::integer("RandomSamples", d.randomSamples, 1, 1e300, "random sampling: samples per step"),
         ParamSpec::boolean("IncludeBaseAsSample", d.includeBaseAsSample, "also evaluate the base velocity"),
+        ParamSpec::boolean("IncludePreferredAsSample", d.includePreferredAsSample,
+                           "also evaluate the preferred velocity (CrowdHealth; UMANS does not)"),
     };
     t[4].minExclusive = true;
     return t;
@@ -98,6 +100,7 @@ SamplingSpec readSampling(ElementReader& r) {
     s.angleSamples = static_cast<int>(r.value("AngleSamples"));
     s.randomSamples = static_cast<int>(r.value("RandomSamples"));
     s.includeBaseAsSample = r.value("IncludeBaseAsSample") != 0.0;
+    s.includePreferredAsSample = r.value("IncludePreferredAsSample") != 0.0;
     return s;
 }
 

@@ -54,6 +54,9 @@ struct SamplingSpec {
     int angleSamples = 11;     ///< regular sampling: directions per ring
     int randomSamples = 100;   ///< random sampling: samples per agent per step
     bool includeBaseAsSample = false;
+    /// Also score the agent's preferred velocity (not UMANS: its regular grid seldom holds it, so a
+    /// cost that wants exactly v_pref, as Karamouzas' with nothing ahead, gets the nearest ring).
+    bool includePreferredAsSample = false;
 };
 
 /// One cost function or force inside a step, with its weight (`coeff`) and parameters.
