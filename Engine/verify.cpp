@@ -311,6 +311,9 @@ int verifyCommand(int argc, char* argv[]) {
 
     // ---- every model's policy, through the normal loader ----
     std::map<std::string, ch::PolicySpec> policies;
+    // A model's fine step is part of the model (SPH integrates on 0.02 s): a model file with
+    // delta_time_fine gives its fine step to every test it runs in.
+    std::map<std::string, double> fineSteps;
     for (const std::string& m : models) {
         const fs::path file = *testsDir / "models" / (m + ".xml");
         ch::Diagnostics diags;
@@ -326,6 +329,7 @@ int verifyCommand(int argc, char* argv[]) {
             return kExitInput;
         }
         policies[m] = *p;
+        if (spec->deltaTimeFine > 0) fineSteps[m] = spec->deltaTimeFine;
     }
 
     // ---- the runs ----
@@ -363,6 +367,15 @@ int verifyCommand(int argc, char* argv[]) {
             std::cerr << "crowdhealth verify: the test " << tests[j.test].id << " (" << file.string() << ") does not load\n";
             return kExitInput;
         }
+        // The fine step of every model that brings one must divide the test's coarse step.
+        for (const auto& [m, fine] : fineSteps) {
+            const double ratio = spec->deltaTime / fine;
+            if (std::abs(ratio - std::round(ratio)) > 1e-9 * ratio || ratio < 1 - 1e-9) {
+                std::cerr << file.string() << ": error: delta_time " << spec->deltaTime << " s is not a multiple of model "
+                          << m << "'s delta_time_fine " << fine << " s\n";
+                return kExitInput;
+            }
+        }
         specs.emplace(key, std::move(*spec));
     }
 
@@ -398,6 +411,7 @@ int verifyCommand(int argc, char* argv[]) {
                 replaced = true;
             }
         if (!replaced) throw std::runtime_error("the test has no policy id 0 to replace");
+        if (const auto fine = fineSteps.find(j.model); fine != fineSteps.end()) spec.deltaTimeFine = fine->second;
         if (const auto& modify = t.variants[j.variant].modify) modify(spec, ctx);
         ch::Simulation sim(std::move(spec));
         sim.setThreads(1);
