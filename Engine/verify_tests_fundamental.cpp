@@ -324,7 +324,7 @@ std::string drawWeidmann(const FigureInput& in, const std::filesystem::path& png
     c.series = meanSeries(in, "density", "speed");
     c.series.push_back(curve("Weidmann 1993", weidmannSpeed, 7));
     c.xrange = {{0, 7}};
-    c.yrange = {{0, 1.8}};
+    c.yrange = {{0, 2.3}};  // room above the data for the key
     return drawChart(c, png);
 }
 
@@ -342,6 +342,7 @@ std::string drawSfpe(const FigureInput& in, const std::filesystem::path& png) {
     for (const auto& [d, f] : imoTable()) imo.points.push_back({d, f});
     imo.points.push_back({7, imoTable().back().second});  // "≥ 3.5"
     c.series.push_back(imo);
+    c.keyPosition = "top left";  // the models' lines rise to the top right
     c.xrange = {{0, 7}};
     c.yrange = {{0, 10}};
     return drawChart(c, png);
@@ -354,7 +355,7 @@ std::string drawSingleFile(const FigureInput& in, const std::filesystem::path& p
     c.ylabel = "walking speed (m/s)";
     c.series = meanSeries(in, "density", "speed");
     c.xrange = {{0, 3}};
-    c.yrange = {{0, 1.8}};
+    c.yrange = {{0, 2.3}};  // room above the data for the key
     return drawChart(c, png);
 }
 
