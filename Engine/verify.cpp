@@ -262,6 +262,19 @@ int verifyCommand(int argc, char* argv[]) {
     const fs::path outDir = vm["output"].as<std::string>();
     const std::vector<TestDef> tests = makeTests();
     const std::vector<std::string>& allNames = chverify::modelNames();
+    // The test whose runs each test reads: itself, or the one named by runsOf.
+    std::vector<std::size_t> runsOf(tests.size());
+    for (std::size_t k = 0; k < tests.size(); ++k) {
+        runsOf[k] = k;
+        if (tests[k].runsOf.empty()) continue;
+        const auto base = std::find_if(tests.begin(), tests.end(), [&](const TestDef& b) { return b.id == tests[k].runsOf; });
+        if (base == tests.end() || !base->runsOf.empty() || !runnable(*base) || !tests[k].combine) {
+            std::cerr << "crowdhealth verify: internal error: test " << tests[k].id << " reads the runs of '" << tests[k].runsOf
+                      << "', which is not a test with runs of its own (or it has no combine)\n";
+            return kExitRuntime;
+        }
+        runsOf[k] = static_cast<std::size_t>(base - tests.begin());
+    }
 
     std::vector<std::string> models = allNames;
     if (vm.count("policy")) {
@@ -334,9 +347,11 @@ int verifyCommand(int argc, char* argv[]) {
 
     // ---- the runs ----
     std::vector<Job> jobs;
-    for (std::size_t k = 0; k < tests.size(); ++k) {
+    std::set<std::size_t> toRun;  // the tests asked for, or those whose runs they read
+    for (std::size_t k = 0; k < tests.size(); ++k)
+        if (runnable(tests[k]) && (onlyTests.empty() || onlyTests.count(tests[k].id))) toRun.insert(runsOf[k]);
+    for (const std::size_t k : toRun) {
         const TestDef& t = tests[k];
-        if (!runnable(t) || (!onlyTests.empty() && !onlyTests.count(t.id))) continue;
         for (const std::string& m : models) {
             if (quick && m != t.quickModel) continue;
             for (std::size_t s = 0; s < seedsOf(t); ++s)
@@ -485,47 +500,51 @@ int verifyCommand(int argc, char* argv[]) {
     }
     std::map<std::pair<std::size_t, std::string>, Cell> cells;
     bool anyError = false;
+    auto inRun = [&](const TestDef& t) { return onlyTests.empty() || onlyTests.count(t.id) != 0; };
     for (const auto& [key, r] : bySeed) {
-        const auto& [test, model, seed] = key;
-        const TestDef& t = tests[test];
-        Cell& c = cells[{test, model}];
-        c.claimed = t.kind == Kind::Criterion && t.claimed.count(model) != 0;
-        ++c.seeds;
-        if (!r.error.empty()) {
-            anyError = true;
-            c.status = "error";
-            c.detail = "seed " + std::to_string(seed) + ": " + r.error;
-            continue;
-        }
-        Check check;
-        if (t.combine) {
-            // --quick may leave variants out: combine sees only those that ran.
-            std::vector<const Outcome*> ran;
-            for (const Outcome* o : r.variants)
-                if (o) ran.push_back(o);
-            try {
-                check = t.combine(ran, RunContext{model, seed, 0, quick});
-            } catch (const std::exception& e) {
+        const auto& [base, model, seed] = key;
+        for (std::size_t test = 0; test < tests.size(); ++test) {
+            if (runsOf[test] != base || !runnable(tests[test]) || !inRun(tests[test])) continue;
+            const TestDef& t = tests[test];
+            Cell& c = cells[{test, model}];
+            c.claimed = t.kind == Kind::Criterion && t.claimed.count(model) != 0;
+            ++c.seeds;
+            if (!r.error.empty()) {
                 anyError = true;
                 c.status = "error";
-                c.detail = "seed " + std::to_string(seed) + ": " + e.what();
+                c.detail = "seed " + std::to_string(seed) + ": " + r.error;
                 continue;
             }
-        } else {
-            check = r.variants.front() ? r.variants.front()->check : Check{};
-        }
-        const double v = check.value;
-        if (std::isfinite(v)) {
-            const std::size_t n = c.seeds;  // running mean over the seeds with a value
-            c.mean = std::isfinite(c.mean) ? c.mean + (v - c.mean) / static_cast<double>(n) : v;
-            c.min = std::isfinite(c.min) ? std::min(c.min, v) : v;
-            c.max = std::isfinite(c.max) ? std::max(c.max, v) : v;
-        }
-        if (check.pass) ++c.passed;
-        // The first failing seed's detail, else the first seed's.
-        if (c.detail.empty() || (!check.pass && !c.detailFails)) {
-            c.detail = "seed " + std::to_string(seed) + ": " + check.detail;
-            c.detailFails = !check.pass;
+            Check check;
+            if (t.combine) {
+                // --quick may leave variants out: combine sees only those that ran.
+                std::vector<const Outcome*> ran;
+                for (const Outcome* o : r.variants)
+                    if (o) ran.push_back(o);
+                try {
+                    check = t.combine(ran, RunContext{model, seed, 0, quick});
+                } catch (const std::exception& e) {
+                    anyError = true;
+                    c.status = "error";
+                    c.detail = "seed " + std::to_string(seed) + ": " + e.what();
+                    continue;
+                }
+            } else {
+                check = r.variants.front() ? r.variants.front()->check : Check{};
+            }
+            const double v = check.value;
+            if (std::isfinite(v)) {
+                const std::size_t n = c.seeds;  // running mean over the seeds with a value
+                c.mean = std::isfinite(c.mean) ? c.mean + (v - c.mean) / static_cast<double>(n) : v;
+                c.min = std::isfinite(c.min) ? std::min(c.min, v) : v;
+                c.max = std::isfinite(c.max) ? std::max(c.max, v) : v;
+            }
+            if (check.pass) ++c.passed;
+            // The first failing seed's detail, else the first seed's.
+            if (c.detail.empty() || (!check.pass && !c.detailFails)) {
+                c.detail = "seed " + std::to_string(seed) + ": " + check.detail;
+                c.detailFails = !check.pass;
+            }
         }
     }
     bool allClaimedPass = !anyError;
@@ -556,11 +575,12 @@ int verifyCommand(int argc, char* argv[]) {
             if (!t.figure) continue;
             chverify::FigureInput in;
             in.test = &t;
+            if (!inRun(t)) continue;
             for (const std::string& m : models)
-                if (std::any_of(jobs.begin(), jobs.end(), [&](const Job& j) { return j.test == k && j.model == m; }))
+                if (std::any_of(jobs.begin(), jobs.end(), [&](const Job& j) { return j.test == runsOf[k] && j.model == m; }))
                     in.models.push_back(m);
             for (const Job& j : jobs)
-                if (j.test == k && j.error.empty()) in.runs.push_back({j.model, j.seed, j.variant, &j.outcome});
+                if (j.test == runsOf[k] && j.error.empty()) in.runs.push_back({j.model, j.seed, j.variant, &j.outcome});
             if (in.runs.empty()) continue;
             fs::create_directories(outDir / "figures", ec);
             const fs::path png = outDir / "figures" / (t.id + ".png");
@@ -576,7 +596,6 @@ int verifyCommand(int argc, char* argv[]) {
     }
 
     // ---- report.md and verify.csv ----
-    auto inRun = [&](const TestDef& t) { return onlyTests.empty() || onlyTests.count(t.id); };
     auto cellText = [&](std::size_t k, const std::string& m) -> std::string {
         const TestDef& t = tests[k];
         if (t.kind == Kind::OutOfScope || t.kind == Kind::Pending) return kindWord(t.kind);
@@ -628,7 +647,7 @@ int verifyCommand(int argc, char* argv[]) {
         if (t.kind == Kind::Validation) claimed = "none (validation)";
         if (t.kind == Kind::Documented) claimed = "none (documented)";
         std::set<std::string> seen;
-        for (const chverify::Variant& v : t.variants)
+        for (const chverify::Variant& v : tests[runsOf[static_cast<std::size_t>(&t - tests.data())]].variants)
             if (seen.insert(v.file).second) files += (files.empty() ? "" : ", ") + ("`" + v.file + "`");
         const std::string what = t.kind == Kind::Pending      ? "pending: " + t.note
                                  : t.kind == Kind::OutOfScope ? "out of scope: " + t.note

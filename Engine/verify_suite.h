@@ -103,6 +103,11 @@ struct TestDef {
     /// Draws the figure into `png`; returns "" or an error. Empty: no figure.
     std::function<std::string(const FigureInput&, const std::filesystem::path& png)> figure;
     std::size_t seeds = 0;     ///< seeds for this test (0: the command's)
+    /// The id of another test whose runs this one reads instead of running its own (RiMEA 4's
+    /// corridor runs serve the validations against Weidmann and SFPE): that test's variants,
+    /// observer, quick model and seeds apply, and it runs when either is asked for. This test
+    /// brings its own kind, texts, claimed models, `combine` (required) and `figure`.
+    std::string runsOf;
     std::string note;          ///< for rows without a criterion: why, or what is shown
 };
 

@@ -10,10 +10,8 @@
 // 2 m measuring area in the middle records the density (people whose centre is inside / 4 m²)
 // and the mean walking speed along the corridor of those inside, from 10 s to 40 s.
 //
-// rimea-4, val-weidmann and val-sfpe measure the same runs. So that each (model, seed, density)
-// is simulated once, whichever of their jobs comes first runs it inside its `modify` (SharedRuns:
-// the others wait for that result) and leaves the frame an empty scenario; every test's observer
-// then hands on the shared outcome. A test run alone (--test val-sfpe) runs them itself.
+// rimea-4, val-weidmann and val-sfpe measure the same runs: the two validations read RiMEA 4's
+// (TestDef::runsOf), so each (model, seed, density) is simulated once.
 #include "verify_criteria_fundamental.h"
 #include "verify_figures.h"
 #include "verify_suite.h"
@@ -23,9 +21,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <future>
 #include <map>
-#include <mutex>
 #include <tuple>
 
 namespace chverify {
@@ -148,52 +144,7 @@ std::unique_ptr<AreaObserver> corridorObserver(double nominal, bool quick) {
     return std::make_unique<AreaObserver>(nominal, -1, 1, -1, 1, 4.0, from, to);
 }
 
-/// Runs shared by several tests: the first caller of a key runs it, later ones (also from other
-/// threads) wait for its outcome; a run that throws throws for every caller.
-class SharedRuns {
-public:
-    using Key = std::tuple<std::string, std::uint64_t, double, bool>;  // model, seed, density, quick
-    Outcome get(const Key& key, const std::function<Outcome()>& run) {
-        std::unique_lock<std::mutex> lock(mutex_);
-        if (const auto it = runs_.find(key); it != runs_.end()) {
-            std::shared_future<Outcome> f = it->second;
-            lock.unlock();
-            return f.get();
-        }
-        std::promise<Outcome> promise;
-        std::shared_future<Outcome> f = promise.get_future().share();
-        runs_.emplace(key, f);
-        lock.unlock();
-        try {
-            promise.set_value(run());
-        } catch (...) {
-            promise.set_exception(std::current_exception());
-        }
-        return f.get();
-    }
-
-private:
-    std::mutex mutex_;
-    std::map<Key, std::shared_future<Outcome>> runs_;
-};
-SharedRuns& sharedRuns() {
-    static SharedRuns runs;
-    return runs;
-}
-
-/// Hands on an outcome measured elsewhere (a shared run).
-class GivenObserver : public Observer {
-public:
-    explicit GivenObserver(Outcome o) : o_(std::move(o)) {}
-    Outcome finish(const ch::Simulation&) override { return o_; }
-
-private:
-    Outcome o_;
-};
-
-/// The corridor's variants, shared by rimea-4, val-weidmann and val-sfpe: each runs its density
-/// once per model, seed and quick (SharedRuns) as the frame would (one thread, observed after
-/// every coarse step), then leaves the frame an empty scenario.
+/// The corridor's variants (RiMEA 4; the validations read their runs): one per density.
 std::vector<Variant> corridorVariants() {
     std::vector<Variant> out;
     for (const double rho : kDensities) {
@@ -202,35 +153,12 @@ std::vector<Variant> corridorVariants() {
         v.file = kCorridorFile;
         v.inQuick = std::find(kQuickDensities.begin(), kQuickDensities.end(), rho) != kQuickDensities.end();
         v.modify = [rho](ch::ScenarioSpec& spec, const RunContext& ctx) {
-            sharedRuns().get({ctx.model, ctx.seed, rho, ctx.quick}, [&] {
-                ch::ScenarioSpec own = spec;
-                fillCorridor(own, ctx, rho * kCorridorLength * kCorridorWidth, kCorridorLength, kCorridorWidth);
-                own.endTime = ctx.quick ? kQuickTransient + kQuickMeasured : kTransient + kMeasured;
-                ch::Simulation sim(std::move(own));
-                sim.setThreads(1);
-                const auto obs = corridorObserver(rho, ctx.quick);
-                obs->step(sim);
-                while (!sim.finished()) {
-                    sim.stepCoarse();
-                    obs->step(sim);
-                }
-                return obs->finish(sim);
-            });
-            spec.agents.clear();  // measured above: nothing left for the frame to run
-            spec.endTime = 0;
+            fillCorridor(spec, ctx, rho * kCorridorLength * kCorridorWidth, kCorridorLength, kCorridorWidth);
+            spec.endTime = ctx.quick ? kQuickTransient + kQuickMeasured : kTransient + kMeasured;
         };
         out.push_back(std::move(v));
     }
     return out;
-}
-
-std::unique_ptr<Observer> corridorOutcome(const RunContext& ctx) {
-    const double rho = kDensities.at(ctx.variant);
-    // The run has been made by this job's modify (or another test's): this only looks it up.
-    return std::make_unique<GivenObserver>(sharedRuns().get({ctx.model, ctx.seed, rho, ctx.quick}, [] {
-        throw std::runtime_error("the shared corridor run is missing");
-        return Outcome{};
-    }));
 }
 
 std::vector<FdPoint> pointsOf(const std::vector<const Outcome*>& outcomes) {
@@ -362,7 +290,6 @@ std::string drawSingleFile(const FigureInput& in, const std::filesystem::path& p
 }  // namespace
 
 void addFundamentalTests(std::vector<TestDef>& t) {
-    const std::vector<Variant> corridor = corridorVariants();
     TestDef d;
 
     d = {};
@@ -376,8 +303,10 @@ void addFundamentalTests(std::vector<TestDef>& t) {
     d.failureMeans = "(no criterion) a density far from the one set means the model cannot hold it";
     d.source = "RiMEA 4.1.1 test 4";
     d.quickModel = "SocialForces";
-    d.variants = corridor;
-    d.observer = corridorOutcome;
+    d.variants = corridorVariants();
+    d.observer = [](const RunContext& ctx) -> std::unique_ptr<Observer> {
+        return corridorObserver(kDensities.at(ctx.variant), ctx.quick);
+    };
     d.combine = [](const std::vector<const Outcome*>& os, const RunContext&) {
         Check c{true, std::nan(""), allPoints(os)};
         for (const Outcome* o : os)
@@ -397,9 +326,7 @@ void addFundamentalTests(std::vector<TestDef>& t) {
                   "(v0 1.34 m/s, gamma 1.913, rho_max 5.4; 0 beyond rho_max)";
     d.failureMeans = "a large error: the model's speed does not fall with density as people's do";
     d.source = "Weidmann 1993";
-    d.quickModel = "SocialForces";
-    d.variants = corridor;
-    d.observer = corridorOutcome;
+    d.runsOf = "rimea-4";
     d.combine = [](const std::vector<const Outcome*>& os, const RunContext&) { return weidmannError(pointsOf(os)); };
     d.figure = drawWeidmann;
     t.push_back(d);
@@ -413,9 +340,7 @@ void addFundamentalTests(std::vector<TestDef>& t) {
                   "between its rows; 0.32 from 3.5 P/m2 on) at the measured density";
     d.failureMeans = "a large error: the model's flow does not rise to a capacity near 1.3 P/(m s) and fall beyond";
     d.source = "SFPE handbook; IMO MSC.1/Circ.1238";
-    d.quickModel = "SocialForces";
-    d.variants = corridor;
-    d.observer = corridorOutcome;
+    d.runsOf = "rimea-4";
     d.combine = [](const std::vector<const Outcome*>& os, const RunContext&) { return sfpeError(pointsOf(os)); };
     d.figure = drawSfpe;
     t.push_back(d);
