@@ -143,3 +143,14 @@ BOOST_AUTO_TEST_CASE(each_model_runs_its_own_policy_and_jobs_change_nothing) {
     BOOST_TEST(meanOf("iso-max-flow,ORCA,pass,") < 1.0);
     BOOST_TEST(meanOf("iso-max-flow,RVO,documented,") > 2.0);
 }
+
+BOOST_AUTO_TEST_CASE(a_validation_asked_alone_runs_the_test_it_reads) {
+    // val-weidmann reads RiMEA 4's corridor runs (TestDef::runsOf): asked for alone, those run, and
+    // only its row is reported.
+    const fs::path dir = freshDir(caseName());
+    const Result r = run(dir, {"verify", "--quick", "--test", "val-weidmann", "--no-figures", "-o", "out", "--tests-dir", kTests.string()});
+    BOOST_TEST(r.status == 0, r.out << r.err);
+    const std::string csv = readFile(dir / "out" / "verify.csv");
+    BOOST_TEST(csv.find("\nval-weidmann,SocialForces,validation,no,1,") != std::string::npos, csv);
+    BOOST_TEST(csv.find("\nrimea-4,") == std::string::npos, csv);
+}
