@@ -220,7 +220,7 @@ Check combineRimea12(const std::vector<const Outcome*>& outs, const RunContext&)
 std::string drawRimea12(const FigureInput& in, const std::filesystem::path& png) {
     Chart c;
     c.title = "RiMEA 12: flow by sub-case (mean of the seeds, min-max bars)";
-    c.xlabel = "sub-case: 1 base (b 1.0 m, L 0.2 m) | 2 L 5 m (12b) | 3 two doors (12c) | 4 b 0.8 m (12d) | 5 b 1.2 m (12d)";
+    c.xlabel = "1 base: b 1.0 m, L 0.2 m | 2 L 5 m (12b) | 3 two doors (12c) | 4 b 0.8 m | 5 b 1.2 m (12d)";
     c.ylabel = "flow, 10th to (N-10)th out (P/s)";
     // The sub-cases are categories, not a scale: each model's points sit side by side around the
     // sub-case's number, and a NaN row between them keeps gnuplot from joining them by lines.
