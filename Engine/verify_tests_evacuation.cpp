@@ -167,13 +167,15 @@ void addEvacuationTests(std::vector<TestDef>& t) {
     d = {};
     d.id = "rimea-8";
     d.title = "RiMEA 8: parameter analysis";
+    // Documented, as RiMEA asks: not every model meets "falls at every step" on every seed (ORCA,
+    // seed 3: 42.0 s at 0.75 m/s, 43.6 s at 1.0 m/s), docs/verification/evacuation.md.
+    d.kind = Kind::Documented;
     d.unit = "ratio";
     d.decimals = 2;
-    d.criterion = "evacuation time (last person out of 48, three rooms and a corridor) falls at every step of the "
-                  "preferred speed 0.5 -> 0.75 -> 1.0 m/s; value: time at 0.5 m/s / time at 1.0 m/s";
+    d.criterion = "documented: evacuation time (last of 48 out, three rooms and a corridor) at preferred speeds 0.5, "
+                  "0.75, 1.0 m/s; 'meets it': it falls at every step; value: time at 0.5 m/s / time at 1.0 m/s";
     d.failureMeans = "a faster crowd does not leave sooner: the speed parameter does not act (or people are stuck)";
     d.source = "RiMEA 4.1.1 test 8";
-    d.claimed = all;
     d.quickModel = "SocialForces-venue";
     for (double v : kSpeeds) {
         d.variants.push_back(Variant{speedLabel(v), "rimea-08-parameters.xml",
@@ -213,7 +215,8 @@ void addEvacuationTests(std::vector<TestDef>& t) {
     d.failureMeans = "the time does not scale with the exits' capacity (a door's flow depends on the crowd behind it, "
                      "or people are stuck)";
     d.source = "RiMEA 4.1.1 test 9 (ratio 1.6-2.4: JuPedSim's RiMEA tests)";
-    d.claimed = all;
+    // Claimed where every seed passes (docs/verification/evacuation.md says why the others fail).
+    d.claimed = {"RVO"};
     d.quickModel = "SocialForces-venue";
     d.variants.push_back(Variant{"4 exits", "rimea-09-room-10m.xml", nullptr, true});
     d.variants.push_back(Variant{"2 exits", "rimea-09-room-10m.xml",
@@ -256,6 +259,7 @@ void addEvacuationTests(std::vector<TestDef>& t) {
     d.failureMeans = "everyone crowds the nearer exit (or nobody prefers it): the route choice ignores congestion";
     d.source = "RiMEA 4.1.1 test 11 (qualitative: most use the nearer exit, some the farther)";
     d.claimed = all;
+    d.claimed.erase("SocialForces");  // R = 0.2 m walls: people stay in front of 1 m doors
     d.quickModel = "SocialForces-venue";
     d.variants.push_back(Variant{"quickest", "rimea-11-route-choice.xml",
                                  [](ch::ScenarioSpec& s, const RunContext& c) {
@@ -332,8 +336,9 @@ void addEvacuationTests(std::vector<TestDef>& t) {
                   "corridors of 44 m and 75.4 m; value: (corner - short) / (long - short), in [0, 1] passes";
     d.failureMeans = "the corner costs less than the shortest way round it or more than the longest (jams or shortcuts)";
     d.source = "RiMEA 4.1.1 test 15";
-    d.claimed = all;
-    d.quickModel = "PowerLaw";
+    // Claimed where seed 1 passes (docs/verification/evacuation.md says why the others fail).
+    d.claimed = {"ORCA", "RVO"};
+    d.quickModel = "ORCA";
     d.seeds = 1;  // 3 x 500 persons: the CPU budget (docs/verification/evacuation.md)
     auto quick100 = [](ch::ScenarioSpec& s, const RunContext& c) {
         if (c.quick) keepAgents(s, 100);
@@ -368,6 +373,7 @@ void addEvacuationTests(std::vector<TestDef>& t) {
     d.failureMeans = "people still leave by a closed exit, or do not re-route and stay inside";
     d.source = "ISO 20414 / NIST TN 1822 (dynamic exit availability)";
     d.claimed = all;
+    d.claimed.erase("SocialForces");  // R = 0.2 m walls: people stay in front of 1 m doors
     d.quickModel = "SocialForces-venue";
     d.variants.push_back(Variant{"", "iso-dynamic-exits.xml",
                                  [](ch::ScenarioSpec& s, const RunContext& c) {
