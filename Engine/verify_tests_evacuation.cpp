@@ -173,7 +173,8 @@ void addEvacuationTests(std::vector<TestDef>& t) {
     d.unit = "ratio";
     d.decimals = 2;
     d.criterion = "documented: evacuation time (last of 48 out, three rooms and a corridor) at preferred speeds 0.5, "
-                  "0.75, 1.0 m/s; 'meets it': it falls at every step; value: time at 0.5 m/s / time at 1.0 m/s";
+                  "0.75, 1.0 m/s (the detail says whether it falls at every step); value: time at 0.5 m/s / time at "
+                  "1.0 m/s";
     d.failureMeans = "a faster crowd does not leave sooner: the speed parameter does not act (or people are stuck)";
     d.source = "RiMEA 4.1.1 test 8";
     d.quickModel = "SocialForces-venue";
@@ -285,8 +286,8 @@ void addEvacuationTests(std::vector<TestDef>& t) {
     d.unit = "% long";
     d.decimals = 0;
     d.criterion = "documented: share of the 64 taking the long free corridor (35 m) instead of the short route through "
-                  "a 1 m door (5 m) with the choice rule quickest (nearest and fixed in the detail); 'meets it': "
-                  "everyone left under every rule";
+                  "a 1 m door (5 m) with the choice rule quickest (nearest and fixed in the detail, which also says "
+                  "when someone did not leave)";
     d.failureMeans = "";
     d.source = "RiMEA 4.1.1 test 14 (level variant: stairs are out of scope in 2D)";
     d.quickModel = "SocialForces-venue";
