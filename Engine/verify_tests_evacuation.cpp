@@ -217,7 +217,7 @@ void addEvacuationTests(std::vector<TestDef>& t) {
                      "or people are stuck)";
     d.source = "RiMEA 4.1.1 test 9 (ratio 1.6-2.4: JuPedSim's RiMEA tests)";
     // Claimed where every seed passes (docs/verification/evacuation.md says why the others fail).
-    d.claimed = {"RVO", "SocialForces-venue", "PowerLaw"};
+    d.claimed = {"ORCA", "RVO", "PowerLaw"};
     d.quickModel = "SocialForces-venue";
     d.variants.push_back(Variant{"4 exits", "rimea-09-room-10m.xml", nullptr, true});
     d.variants.push_back(Variant{"2 exits", "rimea-09-room-10m.xml",
