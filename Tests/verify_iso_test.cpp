@@ -64,7 +64,8 @@ BOOST_AUTO_TEST_CASE(reference_cdfs_with_and_without_truncation) {
     BOOST_TEST(logn.cdf(0) == 0.0);
     BOOST_TEST(Reference({Reference::Kind::Lognormal, 3.689, 0.4, 0, std::exp(3.689)}).cdf(std::exp(3.689) * 0.999) < 1.0);
     BOOST_TEST(Reference({Reference::Kind::Lognormal, 3.689, 0.4, 0, std::exp(3.689)}).cdf(std::exp(3.689)) == 1.0);
-    BOOST_TEST(logn.describe() == "lognormal(mu 3.689, sigma 0.400)");
+    BOOST_TEST(logn.describe() == "lognormal(mu 3.689, sigma 0.4)");
+    BOOST_TEST(Reference({Reference::Kind::Normal, 55, 15, 10, 100}).describe() == "normal(55, 15) in [10, 100]");
 }
 
 BOOST_AUTO_TEST_CASE(ks_critical_values_match_the_exact_table) {
@@ -116,9 +117,11 @@ namespace {
 struct Starts {
     std::vector<StartRecord> people;
     std::vector<double> appeared;
+    std::vector<double> drawn;  ///< the premovement times given
 };
 Starts uniformStarts(double appeared, double delay) {
     Starts s;
+    s.drawn = quantiles(Reference{Reference::Kind::Uniform, 10, 100}, 100, 10, 100);
     const std::vector<double> pm = quantiles(Reference{Reference::Kind::Uniform, 10, 100}, 100, 10, 100);
     for (std::size_t i = 0; i < pm.size(); ++i) {
         s.people.push_back({static_cast<std::int64_t>(i), appeared + pm[i], appeared + pm[i] + delay});
@@ -132,28 +135,55 @@ BOOST_AUTO_TEST_CASE(premovement_starts_follow_the_distribution_none_early) {
     const Reference u{Reference::Kind::Uniform, 10, 100};
     // On time (a step late): passes. The start is measured from the appearance.
     Starts s = uniformStarts(20, 0.1);
-    Check c = premovementDistribution(s.people, s.appeared, u);
+    Check c = premovementDistribution(s.people, s.appeared, s.drawn, u);
     BOOST_TEST(c.pass, c.detail);
     BOOST_TEST(c.value < 0.01);
     // Late by 11 s each: D = 0.005 + 11/90 = 0.127, not rejected; by 12.5 s: 0.144, rejected.
     s = uniformStarts(0, 11);
-    BOOST_TEST(premovementDistribution(s.people, s.appeared, u).pass);
+    BOOST_TEST(premovementDistribution(s.people, s.appeared, s.drawn, u).pass);
     s = uniformStarts(0, 12.5);
-    BOOST_TEST(!premovementDistribution(s.people, s.appeared, u).pass);
+    BOOST_TEST(!premovementDistribution(s.people, s.appeared, s.drawn, u).pass);
     // One person early by more than the tolerance fails, even with the distribution met.
     s = uniformStarts(0, 0);
     s.people[40].start = s.people[40].due - 0.2;
-    BOOST_TEST(!premovementDistribution(s.people, s.appeared, u).pass);
+    BOOST_TEST(!premovementDistribution(s.people, s.appeared, s.drawn, u).pass);
     s.people[40].start = s.people[40].due - 0.05;
-    BOOST_TEST(premovementDistribution(s.people, s.appeared, u).pass);
+    BOOST_TEST(premovementDistribution(s.people, s.appeared, s.drawn, u).pass);
     // Someone who never started fails.
     s.people[40].start.reset();
-    BOOST_TEST(!premovementDistribution(s.people, s.appeared, u).pass);
+    BOOST_TEST(!premovementDistribution(s.people, s.appeared, s.drawn, u).pass);
     // Inputs that must fail.
-    BOOST_TEST(!premovementDistribution({}, {}, u).pass);
+    BOOST_TEST(!premovementDistribution({}, {}, {}, u).pass);
     s = uniformStarts(0, 0);
     s.appeared.pop_back();
-    BOOST_TEST(!premovementDistribution(s.people, s.appeared, u).pass);
+    BOOST_TEST(!premovementDistribution(s.people, s.appeared, s.drawn, u).pass);
+    s = uniformStarts(0, 0);
+    s.drawn.pop_back();
+    BOOST_TEST(!premovementDistribution(s.people, s.appeared, s.drawn, u).pass);
+}
+
+BOOST_AUTO_TEST_CASE(unlucky_draws_let_start_times_pass_within_the_tolerance_of_their_d) {
+    // Draws 12.5 s above the quantiles (D = 0.144: rejected themselves, as 5 % of correct samples
+    // are); people starting when due have the draws' D: pass; starting 1.5 s later (D + 0.0167):
+    // pass; 2.5 s later (D + 0.028, over 0.02): fail.
+    const Reference u{Reference::Kind::Uniform, 10, 100};
+    auto unlucky = [](double delay) {
+        Starts s = uniformStarts(0, 12.5 + delay);
+        for (double& d : s.drawn) d += 12.5;
+        for (StartRecord& p : s.people) p.due += 12.5;
+        return s;
+    };
+    Starts s = unlucky(0);
+    Check c = premovementDistribution(s.people, s.appeared, s.drawn, u);
+    BOOST_TEST(c.pass, c.detail);
+    BOOST_TEST(c.value > ksCriticalValue(100));
+    s = unlucky(1.5);
+    BOOST_TEST(premovementDistribution(s.people, s.appeared, s.drawn, u).pass);
+    s = unlucky(2.5);
+    BOOST_TEST(!premovementDistribution(s.people, s.appeared, s.drawn, u).pass);
+    // Lucky draws give no such allowance: draws on the quantiles, start times 12.5 s late.
+    s = uniformStarts(0, 12.5);
+    BOOST_TEST(!premovementDistribution(s.people, s.appeared, s.drawn, u).pass);
 }
 
 BOOST_AUTO_TEST_CASE(speeds_follow_the_normal_distribution) {
