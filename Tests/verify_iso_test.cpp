@@ -80,6 +80,9 @@ BOOST_AUTO_TEST_CASE(ks_critical_values_match_the_exact_table) {
     // At the critical value the p-value is the significance.
     BOOST_TEST(ksPValue(ksCriticalValue(100), 100) == 0.05, tt::tolerance(0.01));
     BOOST_TEST(ksPValue(ksCriticalValue(37, 0.01), 37) == 0.01, tt::tolerance(0.01));
+    // The Kolmogorov distribution's tail: Q(0.5) = 0.9639, Q(1) = 0.2700 (λ = (√n + 0.12 + 0.11/√n)·D).
+    BOOST_TEST(ksPValue(0.5 / (10 + 0.12 + 0.011), 100) == 0.9639, tt::tolerance(1e-3));
+    BOOST_TEST(ksPValue(1.0 / (10 + 0.12 + 0.011), 100) == 0.2700, tt::tolerance(1e-3));
     BOOST_TEST(ksPValue(0.01, 100) == 1.0);
     BOOST_TEST(ksPValue(0.5, 100) < 1e-9);
 }
@@ -181,8 +184,13 @@ BOOST_AUTO_TEST_CASE(unlucky_draws_let_start_times_pass_within_the_tolerance_of_
     BOOST_TEST(premovementDistribution(s.people, s.appeared, s.drawn, u).pass);
     s = unlucky(2.5);
     BOOST_TEST(!premovementDistribution(s.people, s.appeared, s.drawn, u).pass);
-    // Lucky draws give no such allowance: draws on the quantiles, start times 12.5 s late.
+    // Lucky draws give no such allowance: draws on the quantiles, start times 12.5 s late; draws
+    // 10.35 s off (D = 0.120, not rejected) and start times 1.35 s later still (D = 0.135).
     s = uniformStarts(0, 12.5);
+    BOOST_TEST(!premovementDistribution(s.people, s.appeared, s.drawn, u).pass);
+    s = uniformStarts(0, 10.35 + 1.35);
+    for (double& d : s.drawn) d += 10.35;
+    for (StartRecord& p : s.people) p.due += 10.35;
     BOOST_TEST(!premovementDistribution(s.people, s.appeared, s.drawn, u).pass);
 }
 
