@@ -239,6 +239,18 @@ std::string drawCounterflow(const FigureInput& in, const std::filesystem::path& 
     c.ylabel = "crossing time of the last of the 100 (s)";
     c.keyPosition = "top left";
     c.series = perModelSeries(in, "last", [](std::size_t v) { return static_cast<double>(kOpposite.at(v)); });
+    // A gridlocked run has no crossing time: a black cross at the top of the chart marks it.
+    ChartSeries jam;
+    jam.title = "gridlock in a seed (not all across by the end)";
+    jam.style = "points";
+    jam.colour = "#000000";
+    double top = 0;
+    for (const ChartSeries& s : c.series)
+        for (const auto& p : s.points) top = std::max(top, p.size() > 3 ? p[3] : p[1]);
+    for (const FigureRun& r : in.runs)
+        if (r.outcome && !r.outcome->check.pass)
+            jam.points.push_back({static_cast<double>(kOpposite.at(r.variant)), top + 10});
+    if (!jam.points.empty()) c.series.push_back(std::move(jam));
     c.xrange = std::pair{-5.0, 105.0};
     return drawChart(c, png);
 }
@@ -341,6 +353,7 @@ void addIsoTests(std::vector<TestDef>& t) {
     d.failureMeans = "the model changes free walking speeds (or the draws do not follow the distribution)";
     d.source = "ISO 20414 / NIST TN 1822";
     d.claimed = all;
+    d.claimed.erase("Karamouzas");  // speeds on a sampling grid (docs/verification/iso.md)
     d.quickModel = "PowerLaw";
     d.variants = {Variant{"", "iso-demographics.xml",
                           [](ch::ScenarioSpec& s, const RunContext& ctx) {
@@ -360,7 +373,9 @@ void addIsoTests(std::vector<TestDef>& t) {
                   "50 and 100 opposite persons; a gridlock fails; value: the smallest rise";
     d.failureMeans = "counter-flow does not slow the crowd (people pass through each other) or the model gridlocks";
     d.source = "ISO 20414 / NIST TN 1822";
-    d.claimed = all;
+    // Only Karamouzas rises strictly on every seed; the others gridlock or fall from 50 to 100
+    // opposite (docs/verification/iso.md).
+    d.claimed = {"Karamouzas"};
     d.quickModel = "SocialForces-venue";
     for (std::size_t v = 0; v < kOpposite.size(); ++v)
         d.variants.push_back(Variant{std::to_string(kOpposite[v]) + " opposite", "iso-counterflow.xml",
