@@ -237,11 +237,11 @@ std::string drawCounterflow(const FigureInput& in, const std::filesystem::path& 
     c.title = "ISO/NIST counter-flow: time for the 100 to cross (mean and range over the seeds)";
     c.xlabel = "opposite persons";
     c.ylabel = "crossing time of the last of the 100 (s)";
-    c.keyPosition = "top left";
+    c.keyPosition = "bottom right";  // the top holds the gridlock marks and the slowest crossings
     c.series = perModelSeries(in, "last", [](std::size_t v) { return static_cast<double>(kOpposite.at(v)); });
     // A gridlocked run has no crossing time: a black cross at the top of the chart marks it.
     ChartSeries jam;
-    jam.title = "gridlock in a seed (not all across by the end)";
+    jam.title = "gridlock in a seed (not all across by the end, 180 s)";
     jam.style = "points";
     jam.colour = "#000000";
     double top = 0;
