@@ -117,12 +117,15 @@ const ParamTable& rateTable() {
 const ParamTable& drawTable() {
     static const ParamTable t = {
         ParamSpec::choice("attribute", {"rad", "pref_speed", "max_speed", "premovement"}, 0, "the attribute drawn"),
-        ParamSpec::choice("distribution", {"constant", "uniform", "normal"}, 0, "its distribution"),
+        ParamSpec::choice("distribution", {"constant", "uniform", "normal", "lognormal"}, 0, "its distribution"),
         ParamSpec::real("value", "-", 0, -1e300, 1e300, "constant: the value (attribute's unit)"),
-        ParamSpec::real("min", "-", 0, -1e300, 1e300, "uniform: lower bound; normal: truncation"),
-        ParamSpec::real("max", "-", 0, -1e300, 1e300, "uniform: upper bound; normal: truncation"),
+        ParamSpec::real("min", "-", 0, -1e300, 1e300, "uniform: lower bound; normal, lognormal: truncation"),
+        ParamSpec::real("max", "-", 0, -1e300, 1e300, "uniform: upper bound; normal, lognormal: truncation"),
         ParamSpec::real("mean", "-", 0, -1e300, 1e300, "normal: mean"),
         ParamSpec::real("sd", "-", 0, 0, 1e300, "normal: standard deviation"),
+        // e^20 ≈ 5e8 in the attribute's unit: far beyond any radius, speed or premovement.
+        ParamSpec::real("mu", "-", 0, -20, 20, "lognormal: mean of the natural log of the value"),
+        ParamSpec::real("sigma", "-", 0, 0, 5, "lognormal: standard deviation of the natural log"),
     };
     return t;
 }
@@ -423,9 +426,23 @@ void readSource(LoadContext& ctx, const std::string& file, const XMLElement* el)
                     if (spec.min > spec.max) d.error(d.loc("max"), "Draw: min must not exceed max");
                     break;
                 }
+                case DrawSpec::Kind::Lognormal: {
+                    const auto mu = d.required("mu"), sigma = d.required("sigma");
+                    if (mu) spec.mu = *mu;
+                    if (sigma) spec.sigma = *sigma;
+                    spec.min = d.has("min") ? d.value("min") : 0;
+                    spec.max = d.has("max") ? d.value("max") : 1e300;
+                    if (spec.min > spec.max) d.error(d.loc("max"), "Draw: min must not exceed max");
+                    else if (!(spec.max > 0))
+                        d.error(d.loc("max"), "Draw: lognormal values are above 0: max must be too");
+                    break;
+                }
             }
             // The drawn values must be valid for the attribute: radius > 0, speeds and times ≥ 0.
-            const double lowest = spec.kind == DrawSpec::Kind::Constant ? spec.value : spec.min;
+            // A lognormal value is above 0 whatever its truncation.
+            const double lowest = spec.kind == DrawSpec::Kind::Constant    ? spec.value
+                                  : spec.kind == DrawSpec::Kind::Lognormal ? std::max(spec.min, 1e-300)
+                                                                           : spec.min;
             const bool radius = &spec == &s.radius;
             if (radius ? !(lowest > 0) : lowest < 0)
                 d.error(d.loc(), std::string("Draw: ") + (radius ? "rad must stay above 0" : "the attribute must stay ≥ 0") +

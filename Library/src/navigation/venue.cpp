@@ -35,6 +35,14 @@ double DrawSpec::draw(Rng& rng) const {
             }
             return std::clamp(mean, min, max);
         }
+        case Kind::Lognormal: {
+            // The same for the log: truncated by rejection, else the median clamped.
+            for (int k = 0; k < 64; ++k) {
+                const double v = std::exp(mu + sigma * rng.normal());
+                if (v >= min && v <= max) return v;
+            }
+            return std::clamp(std::exp(mu), min, max);
+        }
     }
     return value;
 }

@@ -69,10 +69,13 @@ struct JourneySpec {
 
 /// An attribute of the agents a source creates, drawn per agent from the run's seed.
 struct DrawSpec {
-    enum class Kind { Constant, Uniform, Normal } kind = Kind::Constant;
+    enum class Kind { Constant, Uniform, Normal, Lognormal } kind = Kind::Constant;
     double value = 0;             ///< Constant
-    double min = 0, max = 0;      ///< Uniform bounds; Normal: truncation bounds
+    double min = 0, max = 0;      ///< Uniform bounds; Normal and Lognormal: truncation bounds
     double mean = 0, sd = 0;      ///< Normal
+    /// Lognormal: the mean and standard deviation of the natural log of the value (the value is
+    /// exp(mu + sigma·z), z standard normal: median e^mu, mean e^(mu + sigma²/2)).
+    double mu = 0, sigma = 0;
     double draw(class Rng& rng) const;
 };
 
