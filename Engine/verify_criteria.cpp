@@ -8,13 +8,14 @@
 
 namespace chverify {
 
-namespace {
-
-std::string num(double v, int decimals) {
+std::string fixedText(double v, int decimals) {
     char buf[64];
     std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
     return buf;
 }
+
+namespace {
+
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
@@ -23,7 +24,7 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 Check arrivalTime(std::optional<double> seconds, double lo, double hi) {
     if (!seconds) return {false, kNaN, "never arrived"};
     const bool pass = *seconds >= lo && *seconds <= hi;
-    return {pass, *seconds, "arrived after " + num(*seconds, 1) + " s"};
+    return {pass, *seconds, "arrived after " + fixedText(*seconds, 1) + " s"};
 }
 
 Check premovementStarts(const std::vector<StartRecord>& people, double early) {
@@ -43,13 +44,13 @@ Check premovementStarts(const std::vector<StartRecord>& people, double early) {
         mostEarly = std::max(mostEarly, -d);
         if (d < -early) {
             c.pass = false;
-            if (first.empty()) first = "agent " + std::to_string(p.id) + " started " + num(-d, 1) + " s early";
+            if (first.empty()) first = "agent " + std::to_string(p.id) + " started " + fixedText(-d, 1) + " s early";
         } else {
             ++ok;
         }
     }
     c.detail = std::to_string(ok) + "/" + std::to_string(people.size()) + " started on time, largest delay " +
-               num(c.value, 1) + " s" + (first.empty() ? "" : "; " + first);
+               fixedText(c.value, 1) + " s" + (first.empty() ? "" : "; " + first);
     return c;
 }
 
@@ -58,7 +59,7 @@ Check cornerPassage(std::size_t arrived, std::size_t total, double maxPenetratio
     const bool walls = maxPenetration <= threshold;
     return {all && walls, maxPenetration,
             std::to_string(arrived) + "/" + std::to_string(total) + " round, deepest wall overlap " +
-                num(maxPenetration * 100, 1) + " cm"};
+                fixedText(maxPenetration * 100, 1) + " cm"};
 }
 
 Check speedsInRanges(const std::vector<SpeedRecord>& people, double tolerance) {
@@ -77,8 +78,8 @@ Check speedsInRanges(const std::vector<SpeedRecord>& people, double tolerance) {
         if (outside > tolerance) {
             c.pass = false;
             if (first.empty())
-                first = "agent " + std::to_string(p.id) + " (" + p.group + ") " + num(*p.speed, 2) + " m/s not in " +
-                        num(p.lo, 2) + "-" + num(p.hi, 2);
+                first = "agent " + std::to_string(p.id) + " (" + p.group + ") " + fixedText(*p.speed, 2) + " m/s not in " +
+                        fixedText(p.lo, 2) + "-" + fixedText(p.hi, 2);
         } else {
             ++ok;
         }
@@ -121,7 +122,7 @@ std::optional<double> specificFlow(std::vector<double> exitTimes, std::size_t fi
 
 Check maximumFlow(std::optional<double> flow, double limit) {
     if (!flow) return {false, kNaN, "too few people left to measure a flow"};
-    return {*flow <= limit, *flow, "specific flow " + num(*flow, 2) + " P/(m s)"};
+    return {*flow <= limit, *flow, "specific flow " + fixedText(*flow, 2) + " P/(m s)"};
 }
 
 }  // namespace chverify

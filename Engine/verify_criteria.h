@@ -10,6 +10,9 @@
 
 namespace chverify {
 
+/// `v` with `decimals` digits after the point ("%.*f"): the numbers of every detail text.
+std::string fixedText(double v, int decimals);
+
 /// The outcome of one criterion on one run: whether it holds, the value the report shows (in the
 /// test's unit; NaN when there is none) and a short explanation ("12/12 in range", "agent 3
 /// started 4.1 s late").

@@ -13,12 +13,6 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-std::string num(double v, int decimals) {
-    char buf[64];
-    std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
-    return buf;
-}
-
 /// RMSE of `f(point)` over the measured points, and the point of the largest |f|.
 struct Rms {
     double rmse = kNaN;
@@ -76,9 +70,9 @@ Check weidmannError(const std::vector<FdPoint>& points) {
     const Rms r = rmsOf(points, [](const FdPoint& p) { return p.speed - weidmannSpeed(p.density); });
     if (r.n == 0) return {false, kNaN, "no density measured (nobody in the measuring area)"};
     return {true, r.rmse,
-            "RMSE " + num(r.rmse, 2) + " m/s over " + std::to_string(r.n) + " densities; largest " + num(r.worstDiff, 2) +
-                " m/s (" + num(r.worst->speed, 2) + " against " + num(weidmannSpeed(r.worst->density), 2) + ") at " +
-                num(r.worst->density, 2) + " P/m2"};
+            "RMSE " + fixedText(r.rmse, 2) + " m/s over " + std::to_string(r.n) + " densities; largest " + fixedText(r.worstDiff, 2) +
+                " m/s (" + fixedText(r.worst->speed, 2) + " against " + fixedText(weidmannSpeed(r.worst->density), 2) + ") at " +
+                fixedText(r.worst->density, 2) + " P/m2"};
 }
 
 Check sfpeError(const std::vector<FdPoint>& points) {
@@ -88,9 +82,9 @@ Check sfpeError(const std::vector<FdPoint>& points) {
     for (const FdPoint& p : points)
         if (p.measured && (!peak || p.density * p.speed > peak->density * peak->speed)) peak = &p;
     return {true, r.rmse,
-            "RMSE " + num(r.rmse, 2) + " P/(m s) over " + std::to_string(r.n) + " densities; largest " +
-                num(r.worstDiff, 2) + " at " + num(r.worst->density, 2) + " P/m2; peak flow " +
-                num(peak->density * peak->speed, 2) + " P/(m s) at " + num(peak->density, 2) + " P/m2 (IMO 1.3 at 1.9)"};
+            "RMSE " + fixedText(r.rmse, 2) + " P/(m s) over " + std::to_string(r.n) + " densities; largest " +
+                fixedText(r.worstDiff, 2) + " at " + fixedText(r.worst->density, 2) + " P/m2; peak flow " +
+                fixedText(peak->density * peak->speed, 2) + " P/(m s) at " + fixedText(peak->density, 2) + " P/m2 (IMO 1.3 at 1.9)"};
 }
 
 std::vector<std::pair<double, double>> corridorLattice(std::size_t count, double length, double width, double radius) {

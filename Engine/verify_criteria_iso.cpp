@@ -11,12 +11,6 @@ namespace chverify {
 
 namespace {
 
-std::string num(double v, int decimals) {
-    char buf[64];
-    std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
-    return buf;
-}
-
 /// A parameter as short as it is exact to 4 digits: 10, 0.4, 3.689.
 std::string g(double v) {
     char buf[64];
@@ -103,16 +97,16 @@ Check ksNotRejected(const std::vector<double>& sample, const Reference& ref, con
     const double d = ksStatistic(sample, ref), crit = ksCriticalValue(sample.size(), alpha);
     const bool pass = d <= crit;
     return {pass, d,
-            what + " vs " + ref.describe() + ": D = " + num(d, 3) + (pass ? " <= " : " > ") + num(crit, 3) +
-                " (n = " + std::to_string(sample.size()) + ", " + num(100 * alpha, 0) + " %; p = " +
-                num(ksPValue(d, sample.size()), 2) + ")"};
+            what + " vs " + ref.describe() + ": D = " + fixedText(d, 3) + (pass ? " <= " : " > ") + fixedText(crit, 3) +
+                " (n = " + std::to_string(sample.size()) + ", " + fixedText(100 * alpha, 0) + " %; p = " +
+                fixedText(ksPValue(d, sample.size()), 2) + ")"};
 }
 
 Check corridorSpeed(std::optional<double> seconds, double distance, double target, double tolerance) {
     if (!seconds || !(*seconds > 0)) return {false, kNaN, "never arrived"};
     const double v = distance / *seconds;
     const bool pass = std::abs(v - target) <= tolerance;
-    return {pass, v, num(distance, 1) + " m in " + num(*seconds, 1) + " s: " + num(v, 3) + " m/s"};
+    return {pass, v, fixedText(distance, 1) + " m in " + fixedText(*seconds, 1) + " s: " + fixedText(v, 3) + " m/s"};
 }
 
 Check premovementDistribution(const std::vector<StartRecord>& people, const std::vector<double>& appeared,
@@ -127,10 +121,10 @@ Check premovementDistribution(const std::vector<StartRecord>& people, const std:
         if (people[i].start) measured.push_back(*people[i].start - appeared[i]);
     Check c = ksNotRejected(measured, ref, "start times", alpha);
     const Check draws = ksNotRejected(drawn, ref, "draws", alpha);
-    c.detail += "; the draws: D = " + num(draws.value, 3);
+    c.detail += "; the draws: D = " + fixedText(draws.value, 3);
     if (!c.pass && !draws.pass && c.value <= draws.value + tolerance) {
         c.pass = true;
-        c.detail += ", rejected themselves; the start times within " + num(tolerance, 2) + " of them";
+        c.detail += ", rejected themselves; the start times within " + fixedText(tolerance, 2) + " of them";
     }
     c.pass = c.pass && starts.pass;
     c.detail = starts.detail + "; " + c.detail;
@@ -156,7 +150,7 @@ Check risingCrossingTimes(const std::vector<std::optional<double>>& times, const
     Check c{true, kNaN, ""};
     std::string list, first;
     for (std::size_t k = 0; k < times.size(); ++k) {
-        list += (k ? ", " : "") + std::to_string(counts[k]) + ": " + (times[k] ? num(*times[k], 1) + " s" : "gridlock");
+        list += (k ? ", " : "") + std::to_string(counts[k]) + ": " + (times[k] ? fixedText(*times[k], 1) + " s" : "gridlock");
         if (!times[k]) {
             c.pass = false;
             if (first.empty()) first = "gridlock against " + std::to_string(counts[k]);

@@ -217,7 +217,7 @@ void addEvacuationTests(std::vector<TestDef>& t) {
                      "or people are stuck)";
     d.source = "RiMEA 4.1.1 test 9 (ratio 1.6-2.4: JuPedSim's RiMEA tests)";
     // Claimed where every seed passes (docs/verification/evacuation.md says why the others fail).
-    d.claimed = {"ORCA", "RVO", "PowerLaw"};
+    d.claimed = {"ORCA", "RVO", "PowerLaw", "SPH"};
     d.quickModel = "SocialForces-venue";
     d.variants.push_back(Variant{"4 exits", "rimea-09-room-10m.xml", nullptr, true});
     d.variants.push_back(Variant{"2 exits", "rimea-09-room-10m.xml",
@@ -338,7 +338,7 @@ void addEvacuationTests(std::vector<TestDef>& t) {
     d.failureMeans = "the corner costs less than the shortest way round it or more than the longest (jams or shortcuts)";
     d.source = "RiMEA 4.1.1 test 15";
     // Claimed where seed 1 passes (docs/verification/evacuation.md says why the others fail).
-    d.claimed = {"ORCA", "RVO"};
+    d.claimed = {"ORCA", "RVO", "SPH"};
     d.quickModel = "ORCA";
     d.seeds = 1;  // 3 x 500 persons: the CPU budget (docs/verification/evacuation.md)
     auto quick100 = [](ch::ScenarioSpec& s, const RunContext& c) {

@@ -42,12 +42,6 @@ constexpr double kQuickTransient = 5, kQuickMeasured = 5;             ///< s, --
 /// ISO 20414's demographic test), cut at ±2 standard deviations.
 constexpr double kSpeedMean = 1.34, kSpeedSd = 0.2;
 
-std::string num(double v, int decimals) {
-    char buf[64];
-    std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
-    return buf;
-}
-
 /// Replaces the agents of the loaded file by `count` copies of its first agent placed by
 /// corridorLattice in a corridor `length` × `width` centred on y = 0, each with a preferred speed
 /// drawn from the seed (the same draws for every model).
@@ -123,10 +117,10 @@ public:
     /// "2 -> 2.14 P/m2: 0.83 m/s, overlap 1 cm"
     static std::string pointText(const Outcome& o, const char* unit = "P/m2") {
         const auto& v = o.values;
-        if (v.at("measured") == 0) return num(v.at("nominal"), 1) + ": nobody measured";
-        std::string s = num(v.at("nominal"), 1) + " -> " + num(v.at("density"), 2) + " " + unit + ": " +
-                        num(v.at("speed"), 2) + " m/s";
-        if (v.at("overlap") >= 0.005) s += ", overlap " + num(100 * v.at("overlap"), 0) + " cm";
+        if (v.at("measured") == 0) return fixedText(v.at("nominal"), 1) + ": nobody measured";
+        std::string s = fixedText(v.at("nominal"), 1) + " -> " + fixedText(v.at("density"), 2) + " " + unit + ": " +
+                        fixedText(v.at("speed"), 2) + " m/s";
+        if (v.at("overlap") >= 0.005) s += ", overlap " + fixedText(100 * v.at("overlap"), 0) + " cm";
         return s;
     }
 
@@ -149,7 +143,7 @@ std::vector<Variant> corridorVariants() {
     std::vector<Variant> out;
     for (const double rho : kDensities) {
         Variant v;
-        v.label = num(rho, 1) + " P/m2";
+        v.label = fixedText(rho, 1) + " P/m2";
         v.file = kCorridorFile;
         v.inQuick = std::find(kQuickDensities.begin(), kQuickDensities.end(), rho) != kQuickDensities.end();
         v.modify = [rho](ch::ScenarioSpec& spec, const RunContext& ctx) {
@@ -358,7 +352,7 @@ void addFundamentalTests(std::vector<TestDef>& t) {
     d.quickModel = "SocialForces";
     for (const double rho : kLineDensities) {
         Variant v;
-        v.label = num(rho, 1) + " P/m";
+        v.label = fixedText(rho, 1) + " P/m";
         v.file = kSingleFileFile;
         v.inQuick = rho == 1 || rho == 2;
         v.modify = [rho](ch::ScenarioSpec& spec, const RunContext& ctx) {
