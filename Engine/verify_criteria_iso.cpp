@@ -169,4 +169,27 @@ Check risingCrossingTimes(const std::vector<std::optional<double>>& times, const
     return c;
 }
 
+Check groupArrivesTogether(const std::vector<std::optional<double>>& arrivals, double maxSpread) {
+    if (arrivals.empty()) return {false, std::nan(""), "nobody to check"};
+    std::size_t missing = 0;
+    double first = 0, last = 0;
+    bool any = false;
+    for (const std::optional<double>& t : arrivals) {
+        if (!t) {
+            ++missing;
+            continue;
+        }
+        first = any ? std::min(first, *t) : *t;
+        last = any ? std::max(last, *t) : *t;
+        any = true;
+    }
+    if (missing > 0)
+        return {false, any ? last - first : std::nan(""),
+                std::to_string(missing) + " of " + std::to_string(arrivals.size()) + " did not arrive"};
+    const double spread = last - first;
+    return {spread <= maxSpread, spread,
+            "arrivals from " + fixedText(first, 1) + " to " + fixedText(last, 1) + " s: spread " + fixedText(spread, 1) +
+                (spread <= maxSpread ? " <= " : " > ") + fixedText(maxSpread, 0) + " s"};
+}
+
 }  // namespace chverify

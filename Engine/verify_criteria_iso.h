@@ -70,6 +70,11 @@ Check speedDistribution(const std::vector<std::optional<double>>& speeds, const 
 /// agents (in that order) increase strictly; a crowd that did not cross (nullopt: gridlock before
 /// the end of the run) fails. Value: the smallest increase from one count to the next (s).
 /// `counts` labels the steps in the detail (same size as `times`).
+/// ISO/NIST groups: every member of the group arrived (nullopt: did not) and the first and the last
+/// arrivals lie within `maxSpread` s. Value: the spread (s). Fails when anyone did not arrive, or
+/// the list is empty.
+Check groupArrivesTogether(const std::vector<std::optional<double>>& arrivals, double maxSpread);
+
 Check risingCrossingTimes(const std::vector<std::optional<double>>& times, const std::vector<int>& counts);
 
 }  // namespace chverify

@@ -5,6 +5,8 @@
 #include "verify_figures.h"
 #include "verify_suite.h"
 
+#include <crowdhealth/core/registry.h>
+
 #include <algorithm>
 #include <cmath>
 #include <map>
@@ -287,6 +289,42 @@ std::string drawSpeeds(const FigureInput& in, const std::filesystem::path& png, 
     return drawChart(c, png);
 }
 
+/// ISO/NIST groups: the group's members (agents with a group) and when each left by an exit.
+class GroupObserver : public Observer {
+public:
+    Outcome finish(const ch::Simulation& sim) override {
+        const auto out = evacuationsById(sim);
+        std::vector<std::optional<double>> arrivals;
+        for (const ch::AgentSpec& a : sim.spec().agents) {
+            if (a.groupIndex < 0) continue;
+            const auto it = out.find(a.id);
+            arrivals.push_back(it != out.end() ? std::optional<double>(it->second->time) : std::nullopt);
+        }
+        Outcome o = groupArrivesTogether(arrivals, kGroupSpread);
+        o.values["spread"] = o.check.value;
+        return o;
+    }
+    static constexpr double kGroupSpread = 10;  ///< s (docs/verification/iso.md, iso-groups)
+};
+
+/// Adds the SocialGroups force (every parameter at its default) to policy id 0 as a step of its
+/// own, so that it works with any model: force-based, velocity-based (its acceleration is added to
+/// the model's) or SPH's fine steps.
+void addGroupForce(ch::ScenarioSpec& spec) {
+    const ch::ComponentInfo* info = ch::Registry::instance().find("SocialGroups");
+    if (info == nullptr) throw std::runtime_error("the SocialGroups force is not registered");
+    ch::ComponentSpec c;
+    c.name = info->name;
+    c.params = ch::ParamSet(ch::Registry::fullTable(*info));
+    ch::StepSpec step;
+    step.timing = ch::StepTiming::Coarse;
+    step.method = ch::OptimisationMethod::Gradient;
+    step.stopAtGoal = true;
+    step.components.push_back(std::move(c));
+    for (ch::PolicySpec& p : spec.policies)
+        if (p.id == 0) p.steps.push_back(step);
+}
+
 }  // namespace
 
 void addIsoTests(std::vector<TestDef>& t) {
@@ -400,6 +438,33 @@ void addIsoTests(std::vector<TestDef>& t) {
         return risingCrossingTimes(times, kOpposite);
     };
     d.figure = drawCounterflow;
+    t.push_back(d);
+
+    d = {};
+    d.id = "iso-groups";
+    d.title = "ISO/NIST: groups arrive together";
+    d.unit = "s";
+    d.decimals = 1;
+    d.criterion = "one group of 15 (5 at 1.25 m/s, 10 at 0.5 m/s) walks 40 m with the SocialGroups force added to the "
+                  "model: all arrive, the first and the last within 10 s (alone: about 48 s apart); value: the spread; "
+                  "the detail also gives the spread without the force";
+    d.failureMeans = "the group force does not hold the group together with this model (or someone is stuck)";
+    d.source = "ISO 20414 / NIST TN 1822 (groups); Moussaid et al. 2010 (the group force)";
+    // Claimed where every seed passes. The others keep the group within 11-13 s of arrivals
+    // (45-50 s without the force) but not within 10 s: Moussaid's coherence acts only beyond
+    // (N - 1)/2 = 7 m from the centre, so a group of 15 may stretch over 14 m; ORCA 25-27 s
+    // (docs/verification/iso.md).
+    d.claimed = {"Karamouzas", "SPH"};
+    d.quickModel = "SPH";
+    d.variants.push_back(Variant{"with SocialGroups", "iso-groups.xml",
+                                 [](ch::ScenarioSpec& s, const RunContext&) { addGroupForce(s); }, true});
+    d.variants.push_back(Variant{"without", "iso-groups.xml", nullptr, true});
+    d.observer = [](const RunContext&) { return std::make_unique<GroupObserver>(); };
+    d.combine = [](const std::vector<const Outcome*>& o, const RunContext&) {
+        Check c = o.at(0)->check;
+        if (o.size() > 1) c.detail += "; without the group force: spread " + fixedText(o[1]->check.value, 1) + " s";
+        return c;
+    };
     t.push_back(d);
 }
 

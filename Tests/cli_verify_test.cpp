@@ -56,7 +56,6 @@ BOOST_AUTO_TEST_CASE(quick_run_passes_and_reports_every_test) {
         BOOST_TEST(static_cast<std::size_t>(std::count(row.begin(), row.end(), '|')) == models.size() + 2, row);
         BOOST_TEST(row.find("|  |") == std::string::npos, "an empty cell: " << row);
         if (id == "rimea-2") BOOST_TEST(row.find("out of scope") != std::string::npos, row);
-        if (id == "iso-groups") BOOST_TEST(row.find("pending") != std::string::npos, row);
         if (id == "rimea-4") BOOST_TEST(row.find("| documented ") != std::string::npos, row);
         if (id == "rimea-1") BOOST_TEST(row.find("pass 29.9") != std::string::npos, row);
         for (const std::string& m : models)
@@ -65,7 +64,7 @@ BOOST_AUTO_TEST_CASE(quick_run_passes_and_reports_every_test) {
     // The quick run's cells: each runnable test ran for one model; stairs are out of scope.
     BOOST_TEST(csv.find("\nrimea-1,SocialForces,pass,yes,1,1,") != std::string::npos, csv);
     BOOST_TEST(csv.find("\nrimea-2,ORCA,out of scope,") != std::string::npos);
-    BOOST_TEST(csv.find("\niso-groups,RVO,pending,") != std::string::npos);
+    BOOST_TEST(csv.find(",pending,") == std::string::npos, "every test is built");
     BOOST_TEST(csv.find(",not run,") != std::string::npos);
     BOOST_TEST(csv.find(",fail,") == std::string::npos);
     // The figure of a test that ran (iso-max-flow: evacuation curves), linked from the report.

@@ -116,13 +116,13 @@ BOOST_AUTO_TEST_CASE(group_settings_out_of_range_are_errors_at_their_line) {
     auto messages = [](const std::string& name, const std::string& agents) { return load(name, corridor(true, agents)).messages; };
     const std::string one = messages("one.xml", R"(    <AgentGrid x="0" y="0" columns="4" rows="1" group_size="1"><goal x="9" y="0" /><Policy id="0" /></AgentGrid>)");
     BOOST_TEST(one.find("one.xml:16: error: AgentGrid@group_size: 1 is not a group") != std::string::npos, one);
-    const std::string big = messages("big.xml", R"(    <AgentGrid x="0" y="0" columns="4" rows="1" group_size="11"><goal x="9" y="0" /><Policy id="0" /></AgentGrid>)");
+    const std::string big = messages("big.xml", R"(    <AgentGrid x="0" y="0" columns="4" rows="1" group_size="21"><goal x="9" y="0" /><Policy id="0" /></AgentGrid>)");
     BOOST_TEST(big.find("big.xml:16: error:") != std::string::npos, big);
     BOOST_TEST(big.find("group_size") != std::string::npos, big);
     std::string eleven;
-    for (int k = 0; k < 11; ++k) eleven += agent(0.6 * k, 0, 30, 1, "party");
+    for (int k = 0; k < 21; ++k) eleven += agent(0.6 * (k % 11), 0.6 * (k / 11), 30, 1, "party");
     const std::string party = messages("party.xml", eleven);
-    BOOST_TEST(party.find("party.xml:26: error: group 'party' has more than 10 members") != std::string::npos, party);
+    BOOST_TEST(party.find("party.xml:36: error: group 'party' has more than 20 members") != std::string::npos, party);
     const std::string alone = messages("alone.xml", agent(0, 0, 9, 1, "solo") + agent(0, 1, 9, 1, "pair") + agent(1, 1, 9, 1, "pair"));
     BOOST_TEST(alone.find("alone.xml:16: warning: group 'solo' has one member") != std::string::npos, alone);
     BOOST_TEST(alone.find("'pair'") == std::string::npos, alone);

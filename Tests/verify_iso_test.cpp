@@ -231,3 +231,19 @@ BOOST_AUTO_TEST_CASE(crossing_times_rise_strictly_with_the_counter_flow) {
     BOOST_TEST(!risingCrossingTimes({50.0}, {0}).pass);
     BOOST_TEST(!risingCrossingTimes({50.0, 60.0}, counts).pass);
 }
+
+BOOST_AUTO_TEST_CASE(a_group_arrives_together_within_the_spread) {
+    using O = std::optional<double>;
+    Check c = groupArrivesTogether({O(40.0), O(45.0), O(49.9)}, 10);
+    BOOST_TEST(c.pass, c.detail);
+    BOOST_TEST(c.value == 9.9, boost::test_tools::tolerance(1e-9));
+    c = groupArrivesTogether({O(49.9), O(40.0), O(50.1)}, 10);  // order does not matter
+    BOOST_TEST(!c.pass, c.detail);
+    BOOST_TEST(c.value == 10.1, boost::test_tools::tolerance(1e-9));
+    BOOST_TEST(groupArrivesTogether({O(40.0), O(50.0)}, 10).pass, "the bound itself passes");
+    BOOST_TEST(!groupArrivesTogether({O(50.0), O(40.0), O(45.0)}, 9).pass, "the latest arrival need not come last");
+    c = groupArrivesTogether({O(40.0), std::nullopt, O(41.0)}, 10);
+    BOOST_TEST(!c.pass, "someone did not arrive");
+    BOOST_TEST(c.detail.find("1 of 3 did not arrive") != std::string::npos, c.detail);
+    BOOST_TEST(!groupArrivesTogether({}, 10).pass, "nobody to check");
+}

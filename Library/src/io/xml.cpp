@@ -763,7 +763,7 @@ void assignAgentIds(LoadContext& ctx) {
 /// an index, in the order of its first member. A group of one is a warning (that agent walks as a
 /// group of one: nobody to keep together with); more members than a group holds is an error.
 void assignGroups(LoadContext& ctx) {
-    constexpr std::size_t kMaxMembers = 10;  // AgentGrid@group_size's upper bound too
+    constexpr std::size_t kMaxMembers = 20;  // AgentGrid@group_size's upper bound too
     std::map<std::string, int> index;
     std::vector<std::size_t> members;
     std::vector<SourceLoc> firstLoc;
@@ -778,7 +778,7 @@ void assignGroups(LoadContext& ctx) {
         a.groupIndex = it->second;
         if (++members[static_cast<std::size_t>(it->second)] == kMaxMembers + 1)
             ctx.diags.error(a.loc, "group '" + a.group + "' has more than " + std::to_string(kMaxMembers) +
-                                       " members (social groups of 2-5 walk together; a larger party is several groups)");
+                                       " members (families and friends walk in groups of 2-5, ISO 20414's group test has 15; a larger party is several groups)");
     }
     for (std::size_t g = 0; g < members.size(); ++g)
         if (members[g] == 1)

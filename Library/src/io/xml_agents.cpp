@@ -17,8 +17,8 @@ double autoMass(double radius) { return (radius / 0.24) * (radius / 0.24); }
 /// exhausting memory.
 constexpr double kMaxGeneratedAgents = 1e7;
 /// Members of one social group at most (families and friends walking together: 2-5 in
-/// Moussaïd et al. 2010; larger parties are allowed up to this).
-constexpr int kMaxGroupSize = 10;
+/// Moussaïd et al. 2010; ISO 20414's group test has 15; larger parties are allowed up to this).
+constexpr int kMaxGroupSize = 20;
 
 // Agent attribute ranges. Speeds up to 20 m/s catch unit mistakes (km/h) without rejecting
 // anything a pedestrian model needs; max_acceleration is unbounded because van Toll's profiles
