@@ -153,3 +153,26 @@ BOOST_AUTO_TEST_CASE(a_validation_asked_alone_runs_the_test_it_reads) {
     BOOST_TEST(csv.find("\nval-weidmann,SocialForces,validation,no,1,") != std::string::npos, csv);
     BOOST_TEST(csv.find("\nrimea-4,") == std::string::npos, csv);
 }
+
+BOOST_AUTO_TEST_CASE(a_model_fine_step_that_does_not_divide_the_test_step_is_an_input_error) {
+    // SPH's model file brings delta_time_fine 0.02 s, which verify gives to every test it runs in;
+    // a test stepping 0.03 s cannot take it: exit 2 naming the file, nothing written.
+    const fs::path dir = freshDir(caseName());
+    fs::create_directories(dir / "Examples");
+    fs::copy(kTests, dir / "Examples" / "verification", fs::copy_options::recursive);
+    fs::copy(kTests.parent_path() / "policies", dir / "Examples" / "policies", fs::copy_options::recursive);
+    fs::copy(kTests.parent_path() / "doorway", dir / "Examples" / "doorway", fs::copy_options::recursive);
+    const fs::path file = dir / "Examples" / "verification" / "rimea-01-corridor.xml";
+    std::string xml = readFile(file);
+    xml.replace(xml.find("delta_time=\"0.1\""), 16, "delta_time=\"0.03\"");
+    std::ofstream(file) << xml;
+    const Result r = run(dir, {"verify", "--test", "rimea-1", "--policy", "SPH", "-o", "out"});
+    BOOST_TEST(r.status == 2, r.out << r.err);
+    BOOST_TEST(r.err.find("rimea-01-corridor.xml: error: delta_time 0.03 s is not a multiple of model SPH's delta_time_fine 0.02 s") !=
+                   std::string::npos, r.err);
+    BOOST_TEST(!fs::exists(dir / "out"));
+    // The same copy with SPH's own step divides: it runs.
+    xml.replace(xml.find("delta_time=\"0.03\""), 17, "delta_time=\"0.1\"");
+    std::ofstream(file) << xml;
+    BOOST_TEST(run(dir, {"verify", "--test", "rimea-1", "--policy", "SPH", "--seeds", "1", "-o", "out", "-q"}).status == 0);
+}
