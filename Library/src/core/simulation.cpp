@@ -49,6 +49,8 @@ Simulation::Simulation(ScenarioSpec specIn)
     agentPolicy_.reserve(spec.agents.size());
     for (const AgentSpec& a : spec.agents) agentPolicy_.push_back(policyIndex[a.policyId]);
 
+    // A body on the floor (CrowdHealth falls) is larger than the person standing.
+    maxRadius = std::max(maxRadius, HealthLayer::largestFallenRadius(spec));
     // Neighbourhood radius per policy: its largest component range, and at least the contact reach.
     maxRadius_ = maxRadius;
     for (const Policy& p : policies_) {
@@ -199,6 +201,7 @@ void Simulation::stepFine() {
         if (navigation_) navigation_->update(agents_, time(), spec_.seed);
         setPreferredVelocities();
         health_.steerPreferred(agents_, grid_, time(), spec_.seed);
+        health_.care(agents_, grid_, time(), dtFine_, spec_.seed);
     });
     timed(Phase::Prepare, [&] {
         for (Policy& p : policies_)
@@ -407,9 +410,17 @@ void Simulation::evaluateAgents(bool coarseBoundary) {
 
 void Simulation::integrate() {
     const std::ptrdiff_t n = static_cast<std::ptrdiff_t>(agents_.size());
+    const bool anyFallen = health_.anyFallen();
 #pragma omp parallel for schedule(static) if (parallelCheapLoop(static_cast<std::size_t>(n)))
     for (std::ptrdiff_t ii = 0; ii < n; ++ii) {
         const std::size_t i = static_cast<std::size_t>(ii);
+        if (anyFallen && health_.isFallen(agents_, i)) {
+            // A body on the floor (CrowdHealth falls) lies still: an obstacle the others avoid.
+            nextVel_[i] = Vec2(0, 0);
+            nextPos_[i] = agents_.pos[i];
+            nextView_[i] = agents_.viewDir[i];
+            continue;
+        }
         Vec2 v(0, 0);
         if (!stopped_[i]) {
             const Vec2 a = clampLength(heldAccel_[i] + fineAccel_[i], agents_.maxAcceleration[i]);

@@ -60,6 +60,26 @@ const ParamTable& crowdHealthTable() {
                             "Helbing et al. 2000's herding p at panic 1: e = norm((1 - p P) e_goal + p P <e_j>)"),
             positive(ParamSpec::real("herdingRadius", "m", d.herdingRadius, 0, 10,
                                      "neighbours within this distance count for herding")),
+            ParamSpec::boolean("falls", d.falls,
+                               "agents fall under a crush dose of fallDose: they lie still as an obstacle until they get up"),
+            positive(ParamSpec::real("fallDose", "N s", d.fallDose, 0, 1e12,
+                                     "dose at which an agent falls (and again at each further multiple of it); falling injures")),
+            ParamSpec::real("getUpTime", "s", d.getUpTime, 0, 1e9,
+                            "time a fallen agent lies on the floor when nobody helps it"),
+            ParamSpec::real("fallenRadius", "m", d.fallenRadius, 0.1, 1.5,
+                            "radius of the body on the floor (grows from the standing radius over 1 s; not rampable)"),
+            ParamSpec::boolean("helping", d.helping,
+                               "agents of this policy help injured and fallen people (of their group, or strangers nearby)"),
+            ParamSpec::real("helpGroup", "-", d.helpGroup, 0, 1,
+                            "probability that an agent helps an injured or fallen member of its own group"),
+            ParamSpec::real("helpStranger", "-", d.helpStranger, 0, 1,
+                            "probability that an agent within helpRadius helps an injured or fallen stranger (one at a time)"),
+            ParamSpec::real("helpRadius", "m", d.helpRadius, 0, 20,
+                            "distance within which a stranger notices an injured or fallen person"),
+            ParamSpec::real("helpTime", "s", d.helpTime, 0, 1e6,
+                            "a helper stands this long beside a fallen person, who then gets up, and both leave"),
+            positive(ParamSpec::real("escortDistance", "m", d.escortDistance, 0, 10,
+                                     "a helper walks with the person it helps, catching up beyond this distance")),
         };
     }();
     return t;
@@ -75,6 +95,9 @@ HealthParams HealthParams::from(const ParamSet& v, bool effects) {
     p.panicSpeedEffect = effects && flag("panicSpeedEffect", p.panicSpeedEffect);
     p.erratic = effects && flag("erratic", p.erratic);
     p.herding = effects && flag("herding", p.herding);
+    p.falls = effects && flag("falls", p.falls);
+    p.helping = effects && flag("helping", p.helping);
+    if (v.has("fallenRadius")) p.fallenRadius = v.get("fallenRadius");  // not rampable: not in set()
     return p;
 }
 
@@ -98,6 +121,13 @@ bool visitReal(HealthParams& p, const std::string& name, F&& f) {
         {"erraticInterval", &HealthParams::erraticInterval},
         {"herdingWeight", &HealthParams::herdingWeight},
         {"herdingRadius", &HealthParams::herdingRadius},
+        {"fallDose", &HealthParams::fallDose},
+        {"getUpTime", &HealthParams::getUpTime},
+        {"helpGroup", &HealthParams::helpGroup},
+        {"helpStranger", &HealthParams::helpStranger},
+        {"helpRadius", &HealthParams::helpRadius},
+        {"helpTime", &HealthParams::helpTime},
+        {"escortDistance", &HealthParams::escortDistance},
     };
     for (const Entry& e : entries)
         if (name == e.name) {
@@ -119,6 +149,9 @@ double HealthParams::get(const std::string& name) const {
     if (name == "panicSpeedEffect") return panicSpeedEffect;
     if (name == "erratic") return erratic;
     if (name == "herding") return herding;
+    if (name == "falls") return falls;
+    if (name == "helping") return helping;
+    if (name == "fallenRadius") return fallenRadius;
     return out;
 }
 
@@ -148,6 +181,22 @@ void HealthLayer::init(const ScenarioSpec& spec) {
     eventFired_.assign(events_.size(), 0);
     crush_ = CrushSummary{};
     maxPanic_ = 0;
+    falls_.clear();
+    fallenNow_ = 0;
+    anyCasualty_ = false;
+    decided_.clear();
+    anyCare_ = false;
+    for (const HealthParams& hp : params_) anyCare_ = anyCare_ || hp.falls || hp.helping;
+}
+
+double HealthLayer::largestFallenRadius(const ScenarioSpec& spec) {
+    double r = 0;
+    for (const PolicySpec& p : spec.policies)
+        if (p.health) {
+            const HealthParams hp = HealthParams::from(p.health->params, true);
+            if (hp.falls) r = std::max(r, hp.fallenRadius);
+        }
+    return r;
 }
 
 void HealthLayer::activated(const AgentStore& agents, std::size_t i) { record(agents, i).seen = true; }
@@ -275,11 +324,12 @@ void HealthLayer::steerPreferred(AgentStore& agents, const PointGrid& grid, doub
     }
 }
 
-void HealthLayer::endStep(const AgentStore& agents, double time, double dt) {
+void HealthLayer::endStep(AgentStore& agents, double time, double dt) {
     const std::size_t n = agents.size();
     const std::ptrdiff_t count = static_cast<std::ptrdiff_t>(n);
     above_.resize(n);
-    // Per agent, in parallel: each iteration writes only its own record and flag.
+    if (anyCare_) fellNow_.assign(n, 0);
+    // Per agent, in parallel: each iteration writes only its own record, flag and radius.
 #pragma omp parallel for schedule(static) if (parallelCheapLoop(static_cast<std::size_t>(count)))
     for (std::ptrdiff_t ii = 0; ii < count; ++ii) {
         const std::size_t i = static_cast<std::size_t>(ii);
@@ -295,6 +345,25 @@ void HealthLayer::endStep(const AgentStore& agents, double time, double dt) {
             r.timeAboveThreshold += dt;
             r.dose += force * dt;
             if (!r.injured() && r.dose >= hp.injuryDose) r.injuredAt = time;
+            // Cornes et al. 2017: under a high enough load a pedestrian falls and lies still; here
+            // at each multiple of fallDose (after getting up, the next multiple fells it again).
+            if (hp.falls && !r.fallen && r.dose >= hp.fallDose * static_cast<double>(r.falls + 1)) {
+                r.fallen = true;
+                if (r.falls == 0) {
+                    r.fellAt = time;
+                    r.fallPosition = agents.pos[i];
+                }
+                ++r.falls;
+                r.lastFellAt = time;
+                r.getUpAt = time + hp.getUpTime;
+                r.standingRadius = agents.radius[i];
+                if (!r.injured()) r.injuredAt = time;  // a fall injures
+                fellNow_[i] = 1;
+            }
+        }
+        if (r.helping >= 0) {  // the helper's own exposure while it helps
+            r.helpTime += dt;
+            if (above_[i]) r.helpDose += force * dt;
         }
         const Vec2& v = agents.vel[i];
         const double s = v.norm();
@@ -332,6 +401,157 @@ void HealthLayer::endStep(const AgentStore& agents, double time, double dt) {
         if (!(crush_.firstTime == crush_.firstTime)) crush_.firstTime = time - dt;
         crush_.seconds += dt;
     }
+    if (!anyCare_) return;
+    // Falls of this step, by id; and whether care() has anyone to look after.
+    const std::size_t before = falls_.size();
+    for (std::size_t i = 0; i < n; ++i) {
+        const HealthRecord& r = record(agents, i);
+        if (fellNow_[i]) {
+            falls_.push_back(FallEvent{r.id, time, agents.pos[i]});
+            ++fallenNow_;
+        }
+        if (!anyCasualty_ && (r.injured() || r.fallen)) anyCasualty_ = true;
+    }
+    std::sort(falls_.begin() + static_cast<std::ptrdiff_t>(before), falls_.end(),
+              [](const FallEvent& a, const FallEvent& b) { return a.id < b.id; });
+}
+
+void HealthLayer::care(AgentStore& agents, const PointGrid& grid, double time, double dt, std::uint64_t seed) {
+    if (!anyCare_ || !anyCasualty_) return;
+    const std::size_t n = agents.size();
+    constexpr double kFallSeconds = 1.0;  // the body takes its room on the floor over this time
+    // 1. The people on the floor: get up when their time has come, else lie still.
+    if (fallenNow_ > 0)
+        for (std::size_t i = 0; i < n; ++i) {
+            HealthRecord& r = record(agents, i);
+            if (!r.fallen) continue;
+            if (time >= r.getUpAt - 0.5 * dt) {
+                r.fallen = false;
+                r.gotUpAt = time;
+                r.getUpAt = HealthRecord::kNever;
+                agents.radius[i] = r.standingRadius;
+                --fallenNow_;
+                continue;
+            }
+            const HealthParams& hp = params_[static_cast<std::size_t>(agents.policy[i])];
+            const double grown = std::min(1.0, (time - r.lastFellAt) / kFallSeconds);
+            agents.radius[i] = r.standingRadius + grown * (hp.fallenRadius - r.standingRadius);
+            agents.prefVel[i] = Vec2(0, 0);
+        }
+    // 2. The casualties in the world (injured or on the floor), by id.
+    std::vector<std::size_t> casualties;
+    std::vector<std::size_t> helpers;
+    bool anyGroup = false;
+    double farthest = 0;  // the largest helpRadius of a policy that helps
+    for (const HealthParams& hp : params_)
+        if (hp.helping) farthest = std::max(farthest, hp.helpRadius);
+    for (std::size_t i = 0; i < n; ++i) {
+        const HealthRecord& r = record(agents, i);
+        if (r.injured() || r.fallen) {
+            casualties.push_back(i);
+            anyGroup = anyGroup || agents.group[i] >= 0;
+        } else if (r.helping >= 0) {
+            helpers.push_back(i);
+        }
+    }
+    std::sort(casualties.begin(), casualties.end(),
+              [&](std::size_t a, std::size_t b) { return agents.id[a] < agents.id[b]; });
+    std::unordered_map<AgentId, std::size_t> casualtyAt;
+    for (std::size_t c : casualties) casualtyAt.emplace(agents.id[c], c);
+    // A helper that was hurt itself stops helping.
+    for (std::size_t i = 0; i < n; ++i) {
+        HealthRecord& r = record(agents, i);
+        if (r.helping >= 0 && (r.injured() || r.fallen)) {
+            r.helping = -1;
+            r.helpPhase = 0;
+        }
+    }
+    // 3. New helpers. Each (helper, casualty) pair decides once, with a draw of its own.
+    if (farthest > 0 || anyGroup) {
+        std::unordered_map<int, std::vector<std::size_t>> members;
+        if (anyGroup)
+            for (std::size_t i = 0; i < n; ++i)
+                if (agents.group[i] >= 0) members[agents.group[i]].push_back(i);
+        auto tryHelp = [&](std::size_t j, std::size_t c, bool stranger) {
+            HealthRecord& rj = record(agents, j);
+            const HealthParams& hp = params_[static_cast<std::size_t>(agents.policy[j])];
+            if (!hp.helping || rj.injured() || rj.fallen || rj.helping >= 0) return false;
+            const AgentId cid = agents.id[c];
+            if (!decided_.emplace(agents.id[j], cid).second) return false;
+            Rng rng(seed, static_cast<std::uint64_t>(agents.id[j]), static_cast<std::uint64_t>(cid), kStreamHelp);
+            if (!(rng.uniform() < (stranger ? hp.helpStranger : hp.helpGroup))) return false;
+            rj.helping = cid;
+            rj.helpPhase = 1;
+            rj.besideSince = HealthRecord::kNever;
+            if (rj.firstHelped < 0) rj.firstHelped = cid;
+            ++record(agents, c).helpers;
+            helpers.push_back(j);
+            return true;
+        };
+        std::vector<std::pair<double, std::size_t>> near;
+        for (std::size_t c : casualties) {
+            const int g = agents.group[c];
+            if (g >= 0)
+                for (std::size_t j : members[g])
+                    if (j != c) tryHelp(j, c, false);
+            if (!(farthest > 0)) continue;
+            // One stranger at a time: only while nobody helps this casualty.
+            bool helped = false;
+            for (std::size_t h : helpers) helped = helped || record(agents, h).helping == agents.id[c];
+            if (helped) continue;
+            near.clear();
+            grid.forEachWithin(agents.pos[c], farthest, [&](int jj, const Vec2&, double d2) {
+                const std::size_t j = static_cast<std::size_t>(jj);
+                if (j == c || (g >= 0 && agents.group[j] == g)) return;
+                const HealthParams& hp = params_[static_cast<std::size_t>(agents.policy[j])];
+                if (hp.helping && hp.helpStranger > 0 && d2 <= hp.helpRadius * hp.helpRadius) near.push_back({d2, j});
+            });
+            std::sort(near.begin(), near.end(), [&](const auto& a, const auto& b) {
+                return a.first != b.first ? a.first < b.first : agents.id[a.second] < agents.id[b.second];
+            });
+            for (const auto& [d2, j] : near)
+                if (tryHelp(j, c, true)) break;
+        }
+    }
+    // 4. The helpers act: to the fallen person, beside it, or walking with the injured one.
+    for (std::size_t i : helpers) {
+        HealthRecord& r = record(agents, i);
+        if (r.helping < 0) continue;
+        const auto it = casualtyAt.find(r.helping);
+        if (it == casualtyAt.end()) {  // the person has left (or is no longer a casualty)
+            r.helping = -1;
+            r.helpPhase = 0;
+            continue;
+        }
+        const std::size_t c = it->second;
+        HealthRecord& rc = record(agents, c);
+        const HealthParams& hp = params_[static_cast<std::size_t>(agents.policy[i])];
+        const Vec2 d = agents.pos[c] - agents.pos[i];
+        const double dist = d.norm();
+        const Vec2 towards = dist > 1e-12 ? Vec2(d / dist) : Vec2(0, 0);
+        if (rc.fallen) {
+            const double reach = agents.radius[i] + agents.radius[c] + 0.3;
+            if (dist > reach + (r.helpPhase == 2 ? 0.5 : 0.0)) {
+                r.helpPhase = 1;
+                agents.prefVel[i] = towards * agents.prefSpeed[i];
+            } else {
+                if (r.helpPhase != 2 && !(r.besideSince == r.besideSince)) r.besideSince = time;
+                r.helpPhase = 2;
+                agents.prefVel[i] = Vec2(0, 0);
+                // Helped up: the person gets up helpTime after the first helper came beside it.
+                rc.getUpAt = std::min(rc.getUpAt, r.besideSince + hp.helpTime);
+            }
+        } else {
+            r.helpPhase = 3;
+            if (dist > hp.escortDistance) {
+                agents.prefVel[i] = towards * agents.prefSpeed[i];
+            } else {
+                const Vec2 v = agents.prefVel[c];
+                const double s = v.norm();
+                agents.prefVel[i] = s > 0 ? Vec2(v / s * std::min(s, agents.prefSpeed[i])) : Vec2(0, 0);
+            }
+        }
+    }
 }
 
 void HealthLayer::markExit(const AgentStore& agents, std::size_t i, double time) { record(agents, i).exitTime = time; }
@@ -339,6 +559,21 @@ void HealthLayer::markExit(const AgentStore& agents, std::size_t i, double time)
 std::size_t HealthLayer::injuredCount() const {
     return static_cast<std::size_t>(
         std::count_if(records_.begin(), records_.end(), [](const HealthRecord& r) { return r.injured(); }));
+}
+
+std::size_t HealthLayer::fallenCount() const {
+    return static_cast<std::size_t>(
+        std::count_if(records_.begin(), records_.end(), [](const HealthRecord& r) { return r.everFell(); }));
+}
+
+std::size_t HealthLayer::helperCount() const {
+    return static_cast<std::size_t>(
+        std::count_if(records_.begin(), records_.end(), [](const HealthRecord& r) { return r.isHelper(); }));
+}
+
+std::size_t HealthLayer::helpedCount() const {
+    return static_cast<std::size_t>(
+        std::count_if(records_.begin(), records_.end(), [](const HealthRecord& r) { return r.helpers > 0; }));
 }
 
 double HealthLayer::meanPanic(const AgentStore& agents) const {
@@ -372,6 +607,16 @@ std::string healthCsv(const HealthLayer& health) {
         optional(r->exitTime);
         out += ',';
         appendNumber(out, r->meanAbsHeadingChange());
+        optional(r->fellAt);
+        out += ',' + std::to_string(r->falls);
+        optional(r->gotUpAt);
+        out += ',';
+        if (r->firstHelped >= 0) out += std::to_string(r->firstHelped);
+        out += ',';
+        appendNumber(out, r->helpTime, 10);
+        out += ',';
+        appendNumber(out, r->helpDose);
+        out += ',' + std::to_string(r->helpers);
         out += '\n';
     }
     return out;

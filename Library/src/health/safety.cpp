@@ -444,6 +444,74 @@ Verdict SafetyRecorder::verdict(const Simulation& sim) const {
                  fmt(cs.firstTime) + " s, " + std::to_string(above) + " people" + where(r);
         v.reasons.push_back(r);
     }
+
+    // Falls (CrowdHealth falls): every fall is critical; where the first was, and where they all were.
+    const std::vector<FallEvent>& falls = h.fallEvents();
+    if (!falls.empty()) {
+        VerdictReason r;
+        r.level = "critical";
+        r.measure = "fallen";
+        double fallDose = 0;
+        for (const HealthRecord& rec : h.records())
+            if (rec.everFell()) fallDose = std::max(fallDose, h.params(rec.policy).fallDose);
+        r.threshold = fallDose;
+        r.unit = "N s";
+        r.firstTime = falls.front().time;
+        r.people = h.fallenCount();
+        r.hasWhere = true;
+        Vec2 sum(0, 0);
+        r.xmin = r.xmax = falls.front().position.x();
+        r.ymin = r.ymax = falls.front().position.y();
+        double down = 0;  // the longest time anyone lay on the floor (until the end if still down)
+        for (const FallEvent& f : falls) {
+            sum += f.position;
+            r.xmin = std::min(r.xmin, f.position.x());
+            r.xmax = std::max(r.xmax, f.position.x());
+            r.ymin = std::min(r.ymin, f.position.y());
+            r.ymax = std::max(r.ymax, f.position.y());
+        }
+        for (const HealthRecord& rec : h.records())
+            if (rec.everFell()) {
+                const double until = rec.fallen ? sim.time() : rec.gotUpAt;
+                if (until == until) down = std::max(down, until - rec.lastFellAt);
+            }
+        r.duration = down;
+        r.x = sum.x() / static_cast<double>(falls.size());
+        r.y = sum.y() / static_cast<double>(falls.size());
+        const FallEvent& first = falls.front();
+        r.text = std::to_string(r.people) + " fell (crush dose above " + fmt(fallDose) + " N s), " +
+                 std::to_string(falls.size()) + (falls.size() == 1 ? " fall" : " falls") + "; the first at t = " +
+                 fmt(first.time) + " s at (" + fmt(first.position.x()) + ", " + fmt(first.position.y()) +
+                 ") m (agent " + std::to_string(first.id) + "); longest on the floor " + fmt(down) + " s";
+        v.reasons.push_back(r);
+    }
+    // Helping: people who stopped or slowed down for an injured or fallen person are delayed where
+    // the crowd is dangerous, and receive a dose of their own.
+    if (const std::size_t helpers = h.helperCount(); helpers > 0) {
+        VerdictReason r;
+        r.level = "caution";
+        r.measure = "helping";
+        r.unit = "s";
+        r.people = helpers;
+        double total = 0, longest = 0, dose = 0, first = std::numeric_limits<double>::quiet_NaN();
+        for (const HealthRecord& rec : h.records())
+            if (rec.isHelper()) {
+                total += rec.helpTime;
+                longest = std::max(longest, rec.helpTime);
+                dose = std::max(dose, rec.helpDose);
+            }
+        for (const HealthRecord& rec : h.records())
+            if (rec.helpers > 0) {
+                const double t = rec.injuredAt;
+                if (t == t && !(first <= t)) first = t;
+            }
+        r.firstTime = first;
+        r.duration = longest;
+        r.text = std::to_string(helpers) + " people helped " + std::to_string(h.helpedCount()) +
+                 " injured or fallen, delayed " + fmt(total) + " s in all (the longest " + fmt(longest) +
+                 " s); the largest crush dose received while helping " + fmt(dose) + " N s";
+        v.reasons.push_back(r);
+    }
     std::stable_sort(v.reasons.begin(), v.reasons.end(), [](const VerdictReason& a, const VerdictReason& b) {
         return verdictRank(a.level) > verdictRank(b.level);
     });

@@ -588,6 +588,18 @@ std::string summaryJson(const Simulation& sim, const RunInfo& info, const Metric
                       {"max_mean_density", jsonNumber(peaks.maxMeanDensity)},
                       {"max_contact_accel", jsonNumber(peaks.maxContactAccel)},
                       {"max_wall_penetration", jsonNumber(peaks.maxWallPenetration)}};
+    // The CrowdHealth layer's people counts (health.csv has them per person).
+    {
+        const HealthLayer& h = sim.health();
+        double helpTime = 0;
+        for (const HealthRecord& r : h.records()) helpTime += r.helpTime;
+        j["health"] = Json{{"injured", h.injuredCount()},
+                           {"fallen", h.fallenCount()},
+                           {"falls", h.fallEvents().size()},
+                           {"helpers", h.helperCount()},
+                           {"helped", h.helpedCount()},
+                           {"help_time_s", jsonNumber(helpTime)}};
+    }
     if (verdict != nullptr) {
         j["verdict"] = verdictJsonValue(*verdict);
         // What the verdict was judged by, under the <Safety> attribute names.

@@ -135,6 +135,11 @@ void readRamp(LoadContext& ctx, const std::string& file, const XMLElement* el) {
                                         " is not a real number (only real parameters can be ramped)");
         return;
     }
+    if (owner == "CrowdHealth" && *parameter == "fallenRadius") {
+        r.error(r.loc("parameter"), "Ramp@parameter: CrowdHealth.fallenRadius cannot be ramped (the neighbour range is "
+                                    "set from it when the run starts)");
+        return;
+    }
     for (const char* attr : {"from", "to"}) {
         const std::optional<double> v = std::string(attr) == "from" ? from : to;
         if (v && !inRange(*spec, *v))

@@ -2,11 +2,12 @@
 //
 // One coarse step (delta_time) = N fine steps (delta_time_fine). Per fine step:
 //   1. agents whose start_time has come are activated; the neighbour grid is rebuilt;
-//   2. preferred velocities are set (towards the goal at preferred speed, zero at the goal);
+//   2. preferred velocities are set (towards the goal at preferred speed, zero at the goal), then
+//      changed by the CrowdHealth layer (herding, erratic motion, falls and helpers);
 //   3. at the first fine step of a coarse step every *coarse* policy step is evaluated and its
 //      acceleration held for the whole coarse step; every *fine* policy step is evaluated now;
 //      a step with a blend (StepSpec::blend) counts with its per-agent weight (PolicyStep::weight);
-//   4. integration (forward Euler): a = clamp(a_coarse + a_fine, a_max); v ← clamp(v + a·dt, s_max);
+//   4. integration (forward Euler; a fallen agent of the CrowdHealth layer does not move): a = clamp(a_coarse + a_fine, a_max); v ← clamp(v + a·dt, s_max);
 //      then UMANS' post-clamp contact: v ← v + dt·F_contact/m; x ← x + v·dt; toric wrap;
 //      AgentStore::contactAccel = UMANS' contact + Σ coeff·contactField() of the components the
 //      agent's policy evaluated (e.g. ContactForces, which acts inside the clamp);

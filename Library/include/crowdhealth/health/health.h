@@ -10,11 +10,15 @@
 //   steerPreferred (after preferred velocities are set): herding and erratic motion turn the
 //     preferred direction (each agent writes only its own prefVel; neighbours' velocities are the
 //     frozen ones; random angles come from Rng(seed, id, interval index, kStreamPanic));
+//   care (after steerPreferred; only when some policy has falls or helping): fallen agents get up
+//     when their time has come, lie still otherwise; helpers are chosen for new casualties (group
+//     members with probability helpGroup, one stranger within helpRadius with helpStranger) and
+//     walk to, stand beside, or escort the person they help (their prefVel is replaced);
 //   endStep (after integration): crush F = bodyMass·m_i·|a_contact,i|, its peak, time above the
-//     threshold, dose ∫F dt while F > threshold, injury once the dose reaches injuryDose; heading
-//     change of the velocity; peak panic.
+//     threshold, dose ∫F dt while F > threshold, injury once the dose reaches injuryDose, a fall at
+//     each multiple of fallDose (with falls on); help time and dose; heading change; peak panic.
 // Without a <CrowdHealth> element a policy still gets every measurement, with the default
-// thresholds, and none of the effects (injury, panic speed, erratic motion, herding).
+// thresholds, and none of the effects (injury, panic speed, erratic motion, herding, falls, help).
 #pragma once
 
 #include "crowdhealth/core/agents.h"
@@ -24,6 +28,8 @@
 
 #include <cstdint>
 #include <limits>
+#include <set>
+#include <utility>
 #include <string>
 #include <vector>
 
@@ -54,6 +60,18 @@ struct HealthParams {
     bool herding = false;
     double herdingWeight = 0.5;      ///< Helbing et al. 2000's p at panic 1
     double herdingRadius = 2.0;      ///< m
+    // Falls (Cornes, Frank & Dorso 2017: fallen, unconscious pedestrians are obstacles)
+    bool falls = false;
+    double fallDose = 270000;        ///< N·s, dose at which an agent falls (again at each multiple)
+    double getUpTime = 60;           ///< s on the floor without help
+    double fallenRadius = 0.5;       ///< m, the body on the floor (not rampable: sets the neighbour range)
+    // Altruism: helping injured and fallen people
+    bool helping = false;
+    double helpGroup = 1;            ///< probability that a member helps an injured member of its group
+    double helpStranger = 0;         ///< probability that a stranger within helpRadius helps
+    double helpRadius = 3;           ///< m
+    double helpTime = 10;            ///< s beside a fallen person before both leave
+    double escortDistance = 1.5;     ///< m, a helper keeps within this distance of the person it helps
 
     /// From a ParamSet of crowdHealthTable(). `effects` false: every effect switched off (a policy
     /// without <CrowdHealth>).
@@ -80,12 +98,38 @@ struct HealthRecord {
     double exitTime = kNever;        ///< s, removed at its goal
     double headingChange = 0;        ///< rad, Σ|Δθ| while moving
     double movingTime = 0;           ///< s over which headingChange was summed
+    // falls
+    double fellAt = kNever;          ///< s, the first fall
+    double lastFellAt = kNever;      ///< s, the latest fall
+    double gotUpAt = kNever;         ///< s, the latest getting up
+    double getUpAt = kNever;         ///< s, when the agent on the floor gets up (while fallen)
+    int falls = 0;                   ///< times fallen
+    bool fallen = false;             ///< on the floor now
+    double standingRadius = 0;       ///< m, its radius before it fell
+    Vec2 fallPosition{0, 0};         ///< m, where it (first) fell
+    // helping (altruism)
+    AgentId helping = -1;            ///< the person it helps now (-1: nobody)
+    int helpPhase = 0;               ///< 0 none, 1 going to, 2 beside (stopped), 3 escorting
+    double besideSince = kNever;     ///< s, arrived beside the fallen person it helps
+    AgentId firstHelped = -1;        ///< the first person it helped
+    double helpTime = 0;             ///< s spent helping (approaching, beside, escorting)
+    double helpDose = 0;             ///< N·s of crush dose received while helping
+    int helpers = 0;                 ///< people who came to help this one
     double lastForce = 0;            ///< N, last fine step
     Vec2 lastHeading{0, 0};          ///< unit velocity direction of the last step (0: none)
 
     bool injured() const { return injuredAt == injuredAt; }
+    bool everFell() const { return falls > 0; }
+    bool isHelper() const { return firstHelped >= 0; }
     /// Mean absolute heading change (rad/s) while moving faster than 0.1 m/s; 0 if never.
     double meanAbsHeadingChange() const { return movingTime > 0 ? headingChange / movingTime : 0.0; }
+};
+
+/// One fall (for the verdict: where and when).
+struct FallEvent {
+    AgentId id = -1;
+    double time = 0;  ///< s
+    Vec2 position{0, 0};
 };
 
 /// Crowd-level crush bookkeeping over the fine steps (for the verdict).
@@ -107,8 +151,21 @@ public:
     void beginStep(AgentStore& agents, const PointGrid& grid, double time, double dt);
     /// Herding and erratic motion on agents.prefVel.
     void steerPreferred(AgentStore& agents, const PointGrid& grid, double time, std::uint64_t seed) const;
-    /// Crush, injury, heading, peaks after the step; `time` is the time at the end of the step.
-    void endStep(const AgentStore& agents, double time, double dt);
+    /// Falls and helping on agents.prefVel (after steerPreferred): fallen agents want nothing;
+    /// helpers are chosen for new casualties and walk to, wait beside or escort the person they
+    /// help. Sequential, in agent order, with random draws from (seed, helper id, casualty id):
+    /// the same result with any thread count.
+    void care(AgentStore& agents, const PointGrid& grid, double time, double dt, std::uint64_t seed);
+    /// Crush, injury, falls, heading, peaks after the step; `time` is the time at the end of the
+    /// step. A fall sets the agent's radius (the body on the floor).
+    void endStep(AgentStore& agents, double time, double dt);
+    /// True while some agent lies on the floor (Simulation pins fallen agents in place).
+    bool anyFallen() const { return fallenNow_ > 0; }
+    /// True when active agent i lies on the floor.
+    bool isFallen(const AgentStore& agents, std::size_t i) const { return recordOf(agents, i).fallen; }
+    /// The largest body radius a policy's falls can give (0 without falls): the neighbour range
+    /// must cover it.
+    static double largestFallenRadius(const ScenarioSpec& spec);
     /// Active agent i (AgentStore index) leaves at its goal at `time` (called before removal).
     void markExit(const AgentStore& agents, std::size_t i, double time);
     /// Active agent i has just entered the world.
@@ -130,6 +187,12 @@ public:
     const CrushSummary& crush() const { return crush_; }
     /// Agents injured so far (all that ever existed).
     std::size_t injuredCount() const;
+    /// Agents that fell at least once / that helped someone / that were helped.
+    std::size_t fallenCount() const;
+    std::size_t helperCount() const;
+    std::size_t helpedCount() const;
+    /// Every fall, in time order (ties by id).
+    const std::vector<FallEvent>& fallEvents() const { return falls_; }
     /// Mean panic over the active agents (0 when none).
     double meanPanic(const AgentStore& agents) const;
 
@@ -149,15 +212,22 @@ private:
     double maxPanic_ = 0;                    ///< largest panic level after the last beginStep
     std::vector<unsigned char> above_;       ///< per AgentStore index: above the crush threshold this step
     CrushSummary crush_;
+    std::vector<FallEvent> falls_;
+    int fallenNow_ = 0;                      ///< agents on the floor now
+    bool anyCasualty_ = false;               ///< someone is injured or fallen (care() has work)
+    bool anyCare_ = false;                   ///< some policy has falls or helping
+    std::vector<unsigned char> fellNow_;     ///< per AgentStore index: fell in this endStep
+    std::set<std::pair<AgentId, AgentId>> decided_;  ///< (helper, casualty) pairs that have decided
 };
 
 /// health.csv: header `id,peak_contact_accel,peak_force,time_above_threshold,dose,injured_at,
-/// peak_panic,exit_time,mean_abs_heading_change`, one row per agent that was ever in the world,
+/// peak_panic,exit_time,mean_abs_heading_change,fell_at,falls,got_up_at,helped_id,help_time,help_dose,
+/// helpers`, one row per agent that was ever in the world,
 /// by id; an empty cell for "never".
 std::string healthCsv(const HealthLayer& health);
 
 inline constexpr const char* kHealthHeader =
     "id,peak_contact_accel,peak_force,time_above_threshold,dose,injured_at,peak_panic,exit_time,"
-    "mean_abs_heading_change";
+    "mean_abs_heading_change,fell_at,falls,got_up_at,helped_id,help_time,help_dose,helpers";
 
 }  // namespace ch

@@ -65,7 +65,7 @@ CrowdField crowdField(const AgentStore& agents, double cellSize = 1.0, double ga
 /// One reason of the verdict.
 struct VerdictReason {
     std::string level;     ///< caution, dangerous or critical
-    std::string measure;   ///< density, crowd_pressure, crush_force, crush_dose, injured
+    std::string measure;   ///< density, crowd_pressure, crush_force, crush_dose, injured, fallen, helping
     double threshold = 0;  ///< in `unit`
     std::string unit;
     double firstTime = std::numeric_limits<double>::quiet_NaN();  ///< s
