@@ -92,6 +92,8 @@ struct HelpTrace {
     double fellAt = NAN, gotUpAt = NAN;
     double stillSeconds = 0;      ///< seconds the helper stood (< 0.1 m/s) beside the casualty while it was down
     double maxGapUp = 0;          ///< largest helper-casualty distance after the casualty got up
+    double helperSpeedUp = 0, casualtySpeedUp = 0;  ///< their mean speeds then (m/s)
+    double helperBack = 0;        ///< seconds the helper walked back (west) then
     double helperX = 0, casualtyX = 0;  ///< final x (or at arrival)
     double helpTime = 0;
     int helpers = 0;
@@ -100,6 +102,7 @@ struct HelpTrace {
 HelpTrace runFamily(const std::string& walkers) {
     Simulation sim(loaded("family.xml", familyScene(walkers)));
     HelpTrace t;
+    int samples = 0;
     while (!sim.finished()) {
         sim.stepCoarse();
         const AgentStore& a = sim.agents();
@@ -108,9 +111,19 @@ HelpTrace runFamily(const std::string& walkers) {
         const HealthRecord& rc = *recordOf(sim, 0);
         const double gap = (a.pos[c] - a.pos[h]).norm();
         if (rc.fallen && a.vel[h].norm() < 0.1 && gap < 1.5) t.stillSeconds += sim.deltaTime();
-        if (rc.gotUpAt == rc.gotUpAt && sim.time() > rc.gotUpAt + 3) t.maxGapUp = std::max(t.maxGapUp, gap);
+        if (rc.gotUpAt == rc.gotUpAt && sim.time() > rc.gotUpAt + 3) {
+            t.maxGapUp = std::max(t.maxGapUp, gap);
+            t.helperSpeedUp += a.vel[h].norm();
+            t.casualtySpeedUp += a.vel[c].norm();
+            if (a.vel[h].x() < -0.05) t.helperBack += sim.deltaTime();
+            ++samples;
+        }
         t.helperX = a.pos[h].x();
         t.casualtyX = a.pos[c].x();
+    }
+    if (samples > 0) {
+        t.helperSpeedUp /= samples;
+        t.casualtySpeedUp /= samples;
     }
     const HealthRecord& rc = *recordOf(sim, 0);
     t.fellAt = rc.fellAt;
@@ -139,6 +152,10 @@ BOOST_AUTO_TEST_CASE(a_family_member_stops_beside_the_fallen_person_and_both_lea
     // Both leave: the injured one walks at half speed and the helper stays with it.
     BOOST_TEST(help.casualtyX > 15.0, "the person helped up walks on");
     BOOST_TEST(help.maxGapUp < 2.5, "the helper walks with it (escortDistance 1.5 m)");
+    BOOST_TEST_MESSAGE("speeds while leaving: helper " << help.helperSpeedUp << ", helped " << help.casualtySpeedUp << " m/s");
+    BOOST_TEST_MESSAGE("helper walked back " << help.helperBack << " s");
+    BOOST_TEST(std::abs(help.helperSpeedUp - help.casualtySpeedUp) < 0.1, "at the pace of the person it helps");
+    BOOST_TEST(help.helperBack < 0.5, "walking with it, not to and fro");
     BOOST_TEST(help.helpTime > 30.0, "helping lasts from the fall to the end of the run");
     // Without help the other member walks away at its own speed.
     BOOST_TEST(alone.stillSeconds < 0.5);
@@ -197,6 +214,29 @@ BOOST_AUTO_TEST_CASE(a_fallen_body_is_an_obstacle_the_others_walk_round) {
     BOOST_TEST(it->text.find("at (12") != std::string::npos, it->text);
 }
 
+BOOST_AUTO_TEST_CASE(a_body_stops_a_walker_that_only_has_contact_forces) {
+    // Policy 0 without avoidance (goal force and UMANS' contact): the walker walks straight at the
+    // body and is held by contact alone; the neighbour range must cover the body on the floor.
+    std::string xml = corridor("", R"(falls="true" crushThreshold="100" injuryDose="1" fallDose="2" getUpTime="1000" fallenRadius="0.6")",
+                               agent(12, -0.15, 12, -0.15, 1.0, 1) + agent(12, 0.15, 12, 0.15, 1.0, 1) + agent(2, 0, 40, 0, 1.2, 0), 20);
+    const std::string avoidance = R"(<costfunction name="SocialForcesAvoidance" range="5" />)";
+    xml.erase(xml.find(avoidance), avoidance.size());
+    Simulation sim(loaded("contact.xml", xml));
+    double worst = 1e9;
+    while (!sim.finished()) {
+        sim.stepCoarse();
+        const AgentStore& a = sim.agents();
+        std::size_t w = 0, b = 0;
+        BOOST_TEST_REQUIRE(find(a, 2, w));
+        for (AgentId id : {0, 1})
+            if (find(a, id, b)) worst = std::min(worst, (a.pos[w] - a.pos[b]).norm() - a.radius[w] - a.radius[b]);
+    }
+    BOOST_TEST_MESSAGE("contact only: closest edge gap " << worst << " m");
+    // About 11 cm at the first impact (1.2 m/s against a stiffness of 62.5 1/s^2); with a neighbour
+    // range that misses the body's extra radius the walker gets 43 cm in.
+    BOOST_TEST(worst > -0.15);
+}
+
 BOOST_AUTO_TEST_CASE(without_falls_the_same_pressure_only_injures) {
     // The body scene with falls off: the two are injured but nobody falls or is pinned.
     const std::string casualty = R"(crushThreshold="100" injuryDose="1" fallDose="2")";
@@ -209,8 +249,10 @@ BOOST_AUTO_TEST_CASE(without_falls_the_same_pressure_only_injures) {
 
 BOOST_AUTO_TEST_CASE(a_stranger_helps_only_with_its_probability) {
     // No group: agent 1 is a stranger 2 m away. helpStranger 1 → it helps; 0 → it walks on.
+    // The casualty's own policy helps too, with a larger radius: the stranger's own helpRadius counts.
     auto run = [](const std::string& walkers) {
-        Simulation sim(loaded("stranger.xml", corridor(walkers, kCasualty, agent(5, 1.85, 40, 1.6, 1.2, 1) + agent(3, 0, 40, 0, 1.2, 0), 20)));
+        const std::string casualty = std::string(kCasualty) + R"( helping="true" helpRadius="5")";
+        Simulation sim(loaded("stranger.xml", corridor(walkers, casualty, agent(5, 1.85, 40, 1.6, 1.2, 1) + agent(3, 0, 40, 0, 1.2, 0), 20)));
         while (!sim.finished()) sim.stepCoarse();
         return std::pair(recordOf(sim, 0)->helpers, recordOf(sim, 1)->helpTime);
     };
