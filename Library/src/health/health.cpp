@@ -184,7 +184,6 @@ void HealthLayer::init(const ScenarioSpec& spec) {
     falls_.clear();
     fallenNow_ = 0;
     anyCasualty_ = false;
-    decided_.clear();
     anyCare_ = false;
     for (const HealthParams& hp : params_) anyCare_ = anyCare_ || hp.falls || hp.helping;
 }
@@ -466,7 +465,7 @@ void HealthLayer::care(AgentStore& agents, const PointGrid& grid, double time, d
             r.helpPhase = 0;
         }
     }
-    // 3. New helpers. Each (helper, casualty) pair decides once, with a draw of its own.
+    // 3. New helpers. Each (helper, casualty) pair has a draw of its own.
     if (farthest > 0 || anyGroup) {
         std::unordered_map<int, std::vector<std::size_t>> members;
         if (anyGroup)
@@ -477,7 +476,7 @@ void HealthLayer::care(AgentStore& agents, const PointGrid& grid, double time, d
             const HealthParams& hp = params_[static_cast<std::size_t>(agents.policy[j])];
             if (!hp.helping || rj.injured() || rj.fallen || rj.helping >= 0) return false;
             const AgentId cid = agents.id[c];
-            if (!decided_.emplace(agents.id[j], cid).second) return false;
+            // The draw is keyed by the pair: asked again later, an agent answers the same.
             Rng rng(seed, static_cast<std::uint64_t>(agents.id[j]), static_cast<std::uint64_t>(cid), kStreamHelp);
             if (!(rng.uniform() < (stranger ? hp.helpStranger : hp.helpGroup))) return false;
             rj.helping = cid;

@@ -28,8 +28,6 @@
 
 #include <cstdint>
 #include <limits>
-#include <set>
-#include <utility>
 #include <string>
 #include <vector>
 
@@ -217,7 +215,6 @@ private:
     bool anyCasualty_ = false;               ///< someone is injured or fallen (care() has work)
     bool anyCare_ = false;                   ///< some policy has falls or helping
     std::vector<unsigned char> fellNow_;     ///< per AgentStore index: fell in this endStep
-    std::set<std::pair<AgentId, AgentId>> decided_;  ///< (helper, casualty) pairs that have decided
 };
 
 /// health.csv: header `id,peak_contact_accel,peak_force,time_above_threshold,dose,injured_at,
