@@ -72,14 +72,23 @@ def mean_sd(values, digits=1):
     return f"{fmt(statistics.mean(values), digits)} ± {fmt(statistics.stdev(values), digits)}"
 
 
+def as_count(value):
+    """A number, or the length of a list (e.g. one entry per fallen person); else None."""
+    if isinstance(value, bool):
+        return None
+    if isinstance(value, (int, float)):
+        return float(value)
+    if isinstance(value, list):
+        return float(len(value))
+    return None
+
+
 def find_count(summary, key):
     """A count named `key` in summary.json: at the top level, in the verdict, or one level down."""
-    for where in (summary, summary.get("verdict") or {}):
-        if isinstance(where, dict) and isinstance(where.get(key), (int, float)) and not isinstance(where.get(key), bool):
-            return float(where[key])
-    for v in summary.values():
-        if isinstance(v, dict) and isinstance(v.get(key), (int, float)) and not isinstance(v.get(key), bool):
-            return float(v[key])
+    places = [summary, summary.get("verdict") or {}] + [v for v in summary.values() if isinstance(v, dict)]
+    for where in places:
+        if isinstance(where, dict) and key in where and as_count(where[key]) is not None:
+            return as_count(where[key])
     return None
 
 
