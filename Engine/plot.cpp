@@ -71,8 +71,9 @@ void addTimePanels(GnuplotJob& job, const std::string& figureTitle, int rows, in
             job.cmd("set label 8 " + gpString(p.zeroLabel) + " at graph 0.5, graph 0.5 center font ',14' tc rgb '#606060'");
         else
             job.cmd("unset label 8");
-        if (ramp)
-            job.cmd("set object 1 rect from " + num(ramp->first) + ", graph 0 to " + num(ramp->second) +
+        const std::optional<std::pair<double, double>>& shade = p.ownRamp ? p.ramp : ramp;
+        if (shade)
+            job.cmd("set object 1 rect from " + num(shade->first) + ", graph 0 to " + num(shade->second) +
                     ", graph 1 behind fc rgb '" + kRampColour + "' fs solid 1.0 noborder");
         else
             job.cmd("unset object 1");
@@ -371,9 +372,13 @@ void drawExperiment(const Experiment& e, std::vector<fs::path>& written, std::ve
             std::vector<Panel> panels;
             for (const std::string& c : cols) {
                 Panel p;
+                // Each panel shades its own parameter's ramp: with several parameters ramped at
+                // different times, the figure's window (first start to last end) would be wrong.
+                p.ownRamp = true;
+                p.ramp = rampWindow(e.runs.front(), c);
                 p.title = c + " against time" +
                           (e.runs.size() > 1 ? " (" + e.runs.front().name + ", the same schedule in every run)" : "") +
-                          (ramp ? "; grey: while the parameters change" : "");
+                          (p.ramp ? "; grey: while it changes" : "");
                 p.ylabel = c;
                 Series s;
                 s.title = e.runs.front().name + (e.runs.size() > 1 ? " (the same schedule in every run)" : "");
@@ -382,6 +387,7 @@ void drawExperiment(const Experiment& e, std::vector<fs::path>& written, std::ve
                 s.points = metricsCurve(e.runs.front(), c);
                 p.series.push_back(std::move(s));
                 p.plainText = true;  // no key: the title says it all, and a key would hide the curve
+                p.rightMargin = 0.97;  // fixed margins, so that the panels' time axes line up
                 panels.push_back(std::move(p));
             }
             const int n = static_cast<int>(panels.size());

@@ -83,6 +83,8 @@ struct Panel {
     double yMax = 0;           ///< > 0: the y range is [0, yMax] (else from the data)
     double rightMargin = 0;    ///< > 0: the plot ends at this fraction of the width (room for an outside
                                ///< key) and begins at 0.07, so that panels line up; 0: automatic
+    bool ownRamp = false;      ///< shade `ramp` (this panel's own window, or nothing) instead of the figure's
+    std::optional<std::pair<double, double>> ramp;  ///< with ownRamp: the time span shaded grey (s)
 };
 
 /// The smallest positive gap between the sorted distinct values (a grid's cell size), else 1.

@@ -229,32 +229,40 @@ std::vector<MeanPoint> meanCurve(const std::vector<Curve>& curves, bool holdLast
     return out;
 }
 
-std::optional<std::pair<double, double>> rampWindow(const RunData& run) {
+static std::optional<std::pair<double, double>> rampWindow(const RunData& run, std::size_t c) {
     const Table& m = run.metrics;
     const int ct = m.column("time");
-    if (ct < 0 || m.rows.size() < 2) return std::nullopt;
+    if (ct < 0 || m.rows.size() < 2 || c >= m.header.size()) return std::nullopt;
     std::optional<double> start, end;
-    for (std::size_t c = kFixedMetricsColumns; c < m.header.size(); ++c) {
-        const double first = m.rows.front()[c], last = m.rows.back()[c];
-        for (std::size_t i = 1; i < m.rows.size(); ++i) {
-            const double t = m.rows[i][static_cast<std::size_t>(ct)];
-            if (m.rows[i][c] != first && std::isfinite(m.rows[i][c])) {
-                const double t0 = m.rows[i - 1][static_cast<std::size_t>(ct)];  // last row still at the start value
-                if (!start || t0 < *start) start = t0;
-                break;
-            }
-            (void)t;
+    const double first = m.rows.front()[c], last = m.rows.back()[c];
+    for (std::size_t i = 1; i < m.rows.size(); ++i) {
+        if (m.rows[i][c] != first && std::isfinite(m.rows[i][c])) {
+            start = m.rows[i - 1][static_cast<std::size_t>(ct)];  // last row still at the start value
+            break;
         }
-        for (std::size_t i = m.rows.size(); i-- > 1;) {
-            if (m.rows[i - 1][c] != last && std::isfinite(m.rows[i - 1][c])) {
-                const double t1 = m.rows[i][static_cast<std::size_t>(ct)];  // first row at the final value
-                if (!end || t1 > *end) end = t1;
-                break;
-            }
+    }
+    for (std::size_t i = m.rows.size(); i-- > 1;) {
+        if (m.rows[i - 1][c] != last && std::isfinite(m.rows[i - 1][c])) {
+            end = m.rows[i][static_cast<std::size_t>(ct)];  // first row at the final value
+            break;
         }
     }
     if (!start || !end || *end <= *start) return std::nullopt;
     return std::make_pair(*start, *end);
+}
+
+std::optional<std::pair<double, double>> rampWindow(const RunData& run, const std::string& column) {
+    const int c = run.metrics.column(column);
+    if (c < static_cast<int>(kFixedMetricsColumns)) return std::nullopt;
+    return rampWindow(run, static_cast<std::size_t>(c));
+}
+
+std::optional<std::pair<double, double>> rampWindow(const RunData& run) {
+    std::optional<std::pair<double, double>> all;
+    for (std::size_t c = kFixedMetricsColumns; c < run.metrics.header.size(); ++c)
+        if (const auto w = rampWindow(run, c))
+            all = all ? std::make_pair(std::min(all->first, w->first), std::max(all->second, w->second)) : *w;
+    return all;
 }
 
 std::optional<double> peak(const Curve& c) {

@@ -89,6 +89,10 @@ std::vector<MeanPoint> meanCurve(const std::vector<Curve>& curves, bool holdLast
 /// from the final value. nullopt if there are no extra columns or none changes.
 std::optional<std::pair<double, double>> rampWindow(const RunData& run);
 
+/// The same for one ramped parameter (an extra metrics.csv column, by name): nullopt when the
+/// run has no such column or it never changes.
+std::optional<std::pair<double, double>> rampWindow(const RunData& run, const std::string& column);
+
 /// The largest finite value of a curve (nullopt if empty).
 std::optional<double> peak(const Curve& c);
 

@@ -43,6 +43,7 @@ struct FakeRun {
     int injured = 0;             ///< agents with an injured_at time
     std::string verdict = "caution";
     bool ramp = false;           ///< an extra column SPH.restDensityMax ramping 3 → 7 over 20–40 s
+    bool secondRamp = false;     ///< an extra column agents.pref_speed ramping 1 → 1.8 over 45–55 s
 };
 
 /// Writes a run folder with metrics.csv, health.csv, heatmap.csv, summary.json.
@@ -52,6 +53,7 @@ void writeRun(const fs::path& dir, const FakeRun& r) {
         "time,agents,evacuated,mean_density,max_density,mean_rest_density,mean_speed,max_speed,mean_contact_accel,"
         "max_contact_accel,max_wall_penetration,mean_panic,injured,crowd_pressure";
     if (r.ramp) m += ",SPH.restDensityMax";
+    if (r.secondRamp) m += ",agents.pref_speed";
     m += "\n";
     const int steps = static_cast<int>(r.evacuationTime);
     for (int k = 0; k <= steps; ++k) {
@@ -63,6 +65,7 @@ void writeRun(const fs::path& dir, const FakeRun& r) {
              num(3 * contact) + ",0.1," + num(0.5 * t / r.evacuationTime) + "," +
              std::to_string(r.injured * k / steps) + "," + num(0.01 * t);
         if (r.ramp) m += "," + num(t <= 20 ? 3.0 : t >= 40 ? 7.0 : 3 + 4 * (t - 20) / 20);
+        if (r.secondRamp) m += "," + num(t <= 45 ? 1.0 : t >= 55 ? 1.8 : 1 + 0.8 * (t - 45) / 10);
         m += "\n";
     }
     write(dir / "metrics.csv", m);
@@ -184,6 +187,57 @@ BOOST_AUTO_TEST_CASE(plot_draws_every_figure_of_replications) {
     BOOST_REQUIRE_EQUAL(run(dir, {"plot", "reps/run_001", "-q"}).status, 0);
     BOOST_TEST(fs::exists(dir / "reps" / "run_001" / "fig3.png"));
     BOOST_TEST(fs::exists(dir / "reps" / "run_001" / "heatmap.png"));
+}
+
+BOOST_AUTO_TEST_CASE(schedule_shades_each_parameters_own_ramp) {
+    // Two parameters ramped one after the other (20–40 s, then 45–55 s, of a 60 s run): each panel
+    // of schedule.png shades its own parameter's ramp, not the span from the first start to the
+    // last end, and the two panels' time axes line up.
+    const fs::path dir = freshDir(caseName());
+    FakeRun a;
+    a.ramp = a.secondRamp = true;
+    writeRun(dir / "one", a);
+    const Result r = run(dir, {"plot", "one", "-q"});
+    BOOST_TEST_INFO("stderr: " << r.err);
+    BOOST_REQUIRE_EQUAL(r.status, 0);
+    const Image img = decodePng(dir / "one" / "schedule.png");
+    BOOST_REQUIRE(img.width > 0u);
+    // The shaded columns of each half of the figure (over 100 pixels of the band's grey 0xe6e6e6:
+    // antialiased text and lines have a few), and each half's x axis: the columns of its longest
+    // run of black pixels along a row (a border).
+    auto shaded = [&](std::uint32_t y0, std::uint32_t y1) {
+        std::pair<std::uint32_t, std::uint32_t> span{img.width, 0};
+        for (std::uint32_t x = 0; x < img.width; ++x) {
+            std::size_t grey = 0;
+            for (std::uint32_t y = y0; y < y1; ++y) {
+                const auto& p = img.pixels[std::size_t(y) * img.width + x];
+                grey += p[0] == 0xe6 && p[1] == 0xe6 && p[2] == 0xe6;
+            }
+            if (grey > 100) span = {std::min(span.first, x), std::max(span.second, x)};
+        }
+        return span;
+    };
+    auto axis = [&](std::uint32_t y0, std::uint32_t y1) {
+        std::pair<std::uint32_t, std::uint32_t> best{0, 0};
+        for (std::uint32_t y = y0; y < y1; ++y)
+            for (std::uint32_t x = 0, run = 0; x < img.width; ++x) {
+                const auto& p = img.pixels[std::size_t(y) * img.width + x];
+                run = (p[0] < 0x40 && p[1] < 0x40 && p[2] < 0x40) ? run + 1 : 0;
+                if (run > best.second - best.first) best = {x + 1 - run, x};
+            }
+        return best;
+    };
+    const std::uint32_t mid = img.height / 2;
+    const auto top = shaded(0, mid), bottom = shaded(mid, img.height);
+    const auto topAxis = axis(0, mid), bottomAxis = axis(mid, img.height);
+    BOOST_REQUIRE(top.first < top.second);
+    BOOST_REQUIRE(bottom.first < bottom.second);
+    BOOST_TEST(top.second < bottom.first);  // 20–40 s lies wholly left of 45–55 s
+    const double pxPerSecond = double(topAxis.second - topAxis.first) / 60;
+    BOOST_TEST(std::abs(double(top.second - top.first) - 20 * pxPerSecond) < 4);      // 20 s wide
+    BOOST_TEST(std::abs(double(bottom.second - bottom.first) - 10 * pxPerSecond) < 4);  // 10 s wide
+    BOOST_TEST(std::abs(double(topAxis.first) - double(bottomAxis.first)) <= 1);  // the axes line up
+    BOOST_TEST(std::abs(double(topAxis.second) - double(bottomAxis.second)) <= 1);
 }
 
 BOOST_AUTO_TEST_CASE(plot_without_schedule_or_heatmap) {
