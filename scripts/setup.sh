@@ -12,7 +12,9 @@ PACKAGES=(g++ cmake make pkg-config libtinyxml2-dev libeigen3-dev libboost-progr
           # <Obstacles file="venue.dxf">: the DXF reader (docs/geometry.md)
           libdxflib-dev
           # crowdhealth-viewer and its test, screenshots/PNG checks (docs/rendering.md)
-          libglfw3-dev libgl-dev zlib1g-dev xvfb xauth)
+          libglfw3-dev libgl-dev zlib1g-dev xvfb xauth
+          # the C API's install test (docs/c-api.md): gcc comes with g++, pkg-config is above; readelf
+          binutils)
 
 # EXTRA_PACKAGES: more packages for a caller (scripts/fuzz.sh: clang, libFuzzer, …).
 read -r -a extra <<< "${EXTRA_PACKAGES:-}"

@@ -1,0 +1,96 @@
+#!/usr/bin/env bash
+# The C API from an installed tree (docs/c-api.md): `cmake --install` into a temporary prefix,
+# Examples/c-api/example.c compiled with gcc -std=c99 against it through pkg-config and through
+# find_package(CrowdHealth), run on a small scenario; checks its output (agents move, time
+# advances, a parameter changes, a misspelt parameter and a bad file give their errors).
+#
+#   capi_install_test.sh BUILD_DIR SOURCE_DIR [EXTRA_CFLAGS]
+# EXTRA_CFLAGS: -fsanitize=… under the sanitizer build (the library is instrumented, so the
+# program must be too).
+set -euo pipefail
+build=$(cd "$1" && pwd)
+src=$(cd "$2" && pwd)
+extra=${3:-}
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+fail() { echo "capi_install_test: FAIL: $*" >&2; exit 1; }
+
+prefix="$tmp/prefix"
+cmake --install "$build" --prefix "$prefix" >"$tmp/install.log" || { cat "$tmp/install.log"; fail "cmake --install"; }
+
+# What an installed tree holds.
+pc=$(find "$prefix" -name crowdhealth.pc)
+[ -n "$pc" ] || fail "no crowdhealth.pc installed"
+libdir=$(dirname "$(dirname "$pc")")
+for f in "$prefix/include/crowdhealth/crowdhealth_c.h" "$prefix/include/crowdhealth/version.h" \
+         "$prefix/include/crowdhealth/core/simulation.h" "$libdir/libcrowdhealth.so" \
+         "$libdir/cmake/CrowdHealth/CrowdHealthConfig.cmake" "$prefix/bin/crowdhealth"; do
+  [ -e "$f" ] || fail "not installed: ${f#"$prefix"/}"
+done
+version=$(PKG_CONFIG_PATH="$(dirname "$pc")" pkg-config --modversion crowdhealth)
+soname=$(readelf -d "$libdir/libcrowdhealth.so" | sed -n 's/.*Library soname: \[\(.*\)\]/\1/p')
+[ "$soname" = "libcrowdhealth.so.${version%.*}" ] || fail "SONAME '$soname' for version $version"
+"$prefix/bin/crowdhealth" --version | grep -q "$version" || fail "the installed program's --version is not $version"
+
+# A scenario with three errors (lines 5 and 8, and the missing policies at line 2).
+cat >"$tmp/bad.xml" <<'XML'
+<?xml version="1.0" encoding="utf-8"?>
+<Simulation delta_time="0.1" end_time="10" seed="1">
+	<World type="Infinite" />
+	<Agents>
+		<Agent id="0" rad="0.25" pref_speed="1.3" max_spead="1.6">
+			<pos x="0" y="0" />
+			<goal x="5" y="0" />
+			<Policy id="3" />
+		</Agent>
+	</Agents>
+</Simulation>
+XML
+scenario="$src/Examples/corridor/bidirectional-socialforces.xml"
+
+# 1. pkg-config, as docs/c-api.md shows.
+export PKG_CONFIG_PATH="$(dirname "$pc")"
+# shellcheck disable=SC2046,SC2086
+gcc -std=c99 -Wall -Wextra -pedantic -Werror $extra "$src/Examples/c-api/example.c" \
+    $(pkg-config --cflags --libs crowdhealth) -lm -o "$tmp/example"
+LD_LIBRARY_PATH="$libdir" "$tmp/example" "$scenario" "$tmp/bad.xml" >"$tmp/out.txt" 2>"$tmp/err.txt" ||
+  { cat "$tmp/out.txt" "$tmp/err.txt"; fail "the example failed"; }
+cat "$tmp/out.txt"
+
+out="$tmp/out.txt"
+grep -qx "CrowdHealth $version" "$out" || fail "ch_version is not $version"
+grep -qx "t = 0.00 s: 80 agents (dt 0.10 s, end time 60.0 s)" "$out" || fail "the start"
+grep -q "^too small: ch_simulation_positions: the buffer holds 0 agents, but there are 80$" "$out" ||
+  fail "asking for the count"
+grep -qx "SocialForcesAvoidance.V0: 2.1 -> 4.2" "$out" || fail "set_parameter/get_parameter"
+grep -q "^set_parameter failed: .*SocialForcesAvoidance has no parameter 'V_0' (did you mean 'V0'?)" "$out" ||
+  fail "set_parameter on an unknown name"
+# After 10 s at about 1.3 m/s the walkers have gone several metres, and still walk.
+line=$(grep "^t = 10.00 s: " "$out") || fail "time did not reach 10 s"
+disp=$(sed -n 's/.*mean displacement \([0-9.]*\) m.*/\1/p' <<<"$line")
+speed=$(sed -n 's/.*mean speed \([0-9.]*\) m\/s.*/\1/p' <<<"$line")
+awk -v d="$disp" -v s="$speed" 'BEGIN { exit !(d > 5 && d < 14 && s > 0.5 && s < 1.7) }' ||
+  fail "mean displacement $disp m, mean speed $speed m/s after 10 s"
+grep -q "^load failed:$" "$out" || fail "the bad file loaded"
+for l in 5 8 2; do grep -q "^$tmp/bad.xml:$l: error: " "$out" || fail "no error at bad.xml:$l"; done
+grep -q "bad.xml:5: error: unknown attribute 'max_spead' on <Agent> (did you mean 'max_speed'?)" "$out" ||
+  fail "the message of bad.xml:5"
+
+# 2. find_package(CrowdHealth) from a C-only CMake project: the same program, the same output.
+mkdir "$tmp/consumer"
+cat >"$tmp/consumer/CMakeLists.txt" <<CMAKE
+cmake_minimum_required(VERSION 3.20)
+project(consumer LANGUAGES C)
+find_package(CrowdHealth $version REQUIRED)
+add_executable(example "$src/Examples/c-api/example.c")
+set_target_properties(example PROPERTIES C_STANDARD 99 C_STANDARD_REQUIRED ON C_EXTENSIONS OFF)
+target_link_libraries(example PRIVATE CrowdHealth::crowdhealth m)
+CMAKE
+unset PKG_CONFIG_PATH
+cmake -S "$tmp/consumer" -B "$tmp/consumer/build" -DCMAKE_PREFIX_PATH="$prefix" -DCMAKE_BUILD_TYPE=Release \
+      -DCMAKE_C_FLAGS="$extra" >"$tmp/consumer.log" 2>&1 || { cat "$tmp/consumer.log"; fail "find_package(CrowdHealth)"; }
+cmake --build "$tmp/consumer/build" >>"$tmp/consumer.log" 2>&1 || { cat "$tmp/consumer.log"; fail "building with CMake"; }
+# The imported target carries the library's path (RPATH in the build tree): no LD_LIBRARY_PATH.
+"$tmp/consumer/build/example" "$scenario" "$tmp/bad.xml" >"$tmp/out2.txt" 2>&1 || { cat "$tmp/out2.txt"; fail "the CMake-built example"; }
+cmp -s "$out" "$tmp/out2.txt" || { diff "$out" "$tmp/out2.txt"; fail "the CMake-built example printed something else"; }
+echo "capi_install_test: OK"
