@@ -93,4 +93,13 @@ cmake --build "$tmp/consumer/build" >>"$tmp/consumer.log" 2>&1 || { cat "$tmp/co
 # The imported target carries the library's path (RPATH in the build tree): no LD_LIBRARY_PATH.
 "$tmp/consumer/build/example" "$scenario" "$tmp/bad.xml" >"$tmp/out2.txt" 2>&1 || { cat "$tmp/out2.txt"; fail "the CMake-built example"; }
 cmp -s "$out" "$tmp/out2.txt" || { diff "$out" "$tmp/out2.txt"; fail "the CMake-built example printed something else"; }
+# 3. docs/c-api.md quotes lines of the example: each must still be in it, as it is (one source).
+doc="$src/docs/c-api.md"
+if [ -f "$doc" ]; then
+  quoted=$(awk '/^```c$/ {on = 1; next} /^```$/ {on = 0} on && NF' "$doc")
+  [ -n "$quoted" ] || fail "docs/c-api.md quotes no C"
+  while IFS= read -r l; do
+    grep -Fxq -- "$l" "$src/Examples/c-api/example.c" || fail "docs/c-api.md quotes a line that is not in Examples/c-api/example.c: $l"
+  done <<<"$quoted"
+fi
 echo "capi_install_test: OK"
