@@ -121,6 +121,24 @@ BOOST_AUTO_TEST_CASE(steps_equal_the_cpp_simulation_bit_for_bit) {
     }
 }
 
+BOOST_AUTO_TEST_CASE(handles_in_two_threads_at_once) {
+    // docs/c-api.md: different handles may run in different threads at the same time; each
+    // thread sets its own OpenMP thread count. Both equal a run made alone.
+    auto run = [](std::uint64_t seed, int threads) {
+        Handle h = loadC(kCorridor, seed);
+        ch_simulation_set_threads(h.get(), threads);
+        for (int k = 0; k < 30; ++k) ch_simulation_step(h.get());
+        return readC(h.get()).xy;
+    };
+    const std::vector<double> alone3 = run(3, 1), alone4 = run(4, 1);
+    std::vector<double> a, b;
+    std::thread ta([&] { a = run(3, 2); }), tb([&] { b = run(4, 1); });
+    ta.join();
+    tb.join();
+    BOOST_CHECK(a == alone3);
+    BOOST_CHECK(b == alone4);
+}
+
 BOOST_AUTO_TEST_CASE(a_different_seed_gives_a_different_run) {
     // The seed reaches the simulation (the noise of the corridor's policy depends on it, and so
     // does the symmetry breaking): guards against a seed argument that is ignored.
