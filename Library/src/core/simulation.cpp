@@ -459,7 +459,10 @@ void Simulation::removeFinished() {
     bool any = false;
     const double t = time();
     const std::size_t firstNew = evacuations_.size();
+    const bool anyFallen = health_.anyFallen();
     for (std::size_t i = 0; i < n; ++i) {
+        // Someone on the floor (CrowdHealth falls) leaves only once up again.
+        if (anyFallen && health_.isFallen(agents_, i)) continue;
         // A journey ends in an exit (crowdhealth/navigation/navigation.h); a plain goal as in UMANS.
         const int exit = navigation_ && agents_.journey[i] >= 0 ? navigation_->leaves(agents_, i) : -1;
         const bool leaves = navigation_ && agents_.journey[i] >= 0
