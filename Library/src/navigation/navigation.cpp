@@ -86,6 +86,7 @@ Navigation::Navigation(const ScenarioSpec& spec, const World& world) : spec_(spe
         if (groupFirst_[g] < 0) groupFirst_[g] = a.id;
         groupMembers_[g].push_back(k);
     }
+    groupExit_.assign(spec.groups.size(), -1);
     groupPlaced_.assign(spec.groups.size(), 0);
     groupAnchor_.assign(spec.groups.size(), Vec2(0, 0));
     groupAnchorStep_.assign(spec.groups.size(), std::numeric_limits<std::uint64_t>::max());
@@ -462,6 +463,15 @@ void Navigation::chooseExit(AgentStore& a, std::size_t i, double t, std::uint64_
         }
     }
     if (chosen < 0) chosen = nearest();
+    // A social group leaves by one exit: members heading for different exits would pull each
+    // other back (the SocialGroups force) and stall between them. The first member to choose picks
+    // by the rule; the others take its exit while it is open (they do not re-evaluate it one by one).
+    const int g = a.group[i];
+    if (g >= 0 && static_cast<std::size_t>(g) < groupExit_.size()) {
+        const int shared = groupExit_[static_cast<std::size_t>(g)];
+        if (shared >= 0 && std::find(openOnes.begin(), openOnes.end(), shared) != openOnes.end()) chosen = shared;
+        else groupExit_[static_cast<std::size_t>(g)] = chosen;
+    }
     current = chosen;
     a.navDir[i] = directionTo(current, a.pos[i], a.navDistance[i]);
 }

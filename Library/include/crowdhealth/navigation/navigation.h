@@ -9,7 +9,8 @@
 //   3. (serial, in agent order, on the state of 2) arrivals: an agent inside its waypoint starts
 //      its dwell (admitted first at a checkpoint with a capacity), then goes on to the next stage;
 //      a checkpoint admits its free places to the nearest waiting agents (ties by id); agents at
-//      the exit stage choose an exit by their set's rule (quickest: re-evaluated every interval);
+//      the exit stage choose an exit by their set's rule (quickest: re-evaluated every interval;
+//      a social group's members take the exit its first member to choose picked, while it is open);
 //   4. the preferred velocity: direction × preferred speed, zero while the agent waits (its
 //      premovement time, a dwell, or a queue in front of a full checkpoint) or stands at its last
 //      waypoint.
@@ -123,6 +124,9 @@ private:
     std::vector<AgentId> groupFirst_;
     std::vector<std::vector<std::size_t>> groupMembers_;  ///< per group: its members (indices into spec agents)
     std::vector<std::pair<AgentId, Vec2>> reserved_;      ///< places kept for the group placed last
+    /// Per social group (every group, declared or drawn): the exit its first member to choose
+    /// picked; the others take it while it is open (-1: none yet).
+    std::vector<int> groupExit_;
     std::vector<unsigned char> groupPlaced_;
     std::vector<Vec2> groupAnchor_;
     std::vector<std::uint64_t> groupAnchorStep_;
