@@ -440,3 +440,25 @@ BOOST_AUTO_TEST_CASE(a_group_leaves_by_one_exit) {
     BOOST_TEST_REQUIRE(exitsOf.size() >= 10u);
     for (const auto& [g, exits] : exitsOf) BOOST_TEST(exits.size() == 1u, "group '" << s.groups[static_cast<std::size_t>(g)] << "' left by " << exits.size() << " exits");
 }
+
+BOOST_AUTO_TEST_CASE(members_are_not_placed_across_a_wall) {
+    // A wall at x = 6 across the source's area (open above y = 18): each member is placed on its
+    // first member's side, though the other side is often within 1.5 m.
+    std::string xml = hall(R"(rate="3" count="90" premovement="1000" group_size_min="2" group_size_max="5")", true, 4, 40, "",
+                           R"(xmin="1" xmax="11" ymin="1" ymax="17")");
+    xml.replace(xml.find("</Obstacles>"), 12, "<Obstacle><Point x=\"6\" y=\"0\" /><Point x=\"6\" y=\"18\" /></Obstacle>\n</Obstacles>");
+    const ScenarioSpec s = loaded("wall.xml", xml);
+    const Run r = run(s);
+    BOOST_TEST_REQUIRE(r.arrivals.size() == 90u);
+    int nearWall = 0;
+    for (const auto& g : units(s)) {
+        const Arrival& a0 = r.arrivals.at(s.agents[g.front()].id);
+        if (g.size() >= 2 && std::abs(a0.at.x() - 6) < 1.5) ++nearWall;
+        for (std::size_t m : g) {
+            const Arrival& a = r.arrivals.at(s.agents[m].id);
+            BOOST_TEST((a.at.x() < 6) == (a0.at.x() < 6), s.agents[g.front()].group << ": a member at x = " << a.at.x()
+                                                                                     << ", its first at x = " << a0.at.x());
+        }
+    }
+    BOOST_TEST(nearWall >= 5, nearWall << " groups whose first member is within 1.5 m of the wall");
+}
