@@ -462,3 +462,39 @@ BOOST_AUTO_TEST_CASE(members_are_not_placed_across_a_wall) {
     }
     BOOST_TEST(nearWall >= 5, nearWall << " groups whose first member is within 1.5 m of the wall");
 }
+
+BOOST_AUTO_TEST_CASE(a_group_without_room_for_all_waits_10_s_then_arrives_as_it_fits) {
+    // A 1 m × 1 m area in a hole of a crowd standing 0.6 m apart (policy 1: no avoidance, so it
+    // stays put): a group of 10 cannot fit. It waits kGroupPatience, then its first member comes.
+    std::string grids;
+    auto grid = [&](double x, double y, int columns, int rows) {
+        grids += "<AgentGrid x=\"" + std::to_string(x) + "\" y=\"" + std::to_string(y) + "\" columns=\"" + std::to_string(columns) +
+                 "\" rows=\"" + std::to_string(rows) + "\" spacing=\"0.6\" journey=\"j\" premovement=\"1000\"><Policy id=\"1\" /></AgentGrid>\n";
+    };
+    grid(2.0, 6.0, 5, 13);  // west, x 2.0..4.4
+    grid(6.6, 6.0, 5, 13);  // east, x 6.6..9.0
+    grid(5.1, 6.0, 2, 5);   // south, y 6.0..8.4
+    grid(5.1, 10.6, 2, 5);  // north, y 10.6..13.0
+    std::string xml = hall(R"(rate="100" start="1" count="10" group_size_min="10" group_size_max="10")", true, 1, 13, grids,
+                           R"(xmin="5" xmax="6" ymin="9" ymax="10")");
+    xml.replace(xml.find("</Policies>"), 11,
+                "<Policy id=\"1\" OptimizationMethod=\"gradient\" RelaxationTime=\"0.5\"><costfunction name=\"GoalReachingForce\" /></Policy>\n</Policies>");
+    const ScenarioSpec s = loaded("patience.xml", xml);
+    Simulation sim(s);
+    const std::size_t standing = s.agents.size() - 10;
+    double first = -1;
+    std::size_t atFirst = 0;
+    while (!sim.finished()) {
+        sim.stepCoarse();
+        if (sim.agents().size() > standing && first < 0) {
+            first = sim.time();
+            atFirst = sim.agents().size() - standing;
+        }
+    }
+    BOOST_TEST_MESSAGE("the group's first member arrived at " << first << " s with " << atFirst << " members; "
+                                                              << sim.agents().size() + sim.evacuations().size() - standing
+                                                              << " of 10 by the end");
+    BOOST_TEST(first >= 1 + Navigation::kGroupPatience - 0.05, "arrived at " << first << " s");
+    BOOST_TEST(first <= 1 + Navigation::kGroupPatience + 0.25, "arrived at " << first << " s");
+    BOOST_TEST(atFirst < 10u);
+}
