@@ -470,7 +470,8 @@ void Navigation::chooseExit(AgentStore& a, std::size_t i, double t, std::uint64_
     if (g >= 0 && static_cast<std::size_t>(g) < groupExit_.size()) {
         const int shared = groupExit_[static_cast<std::size_t>(g)];
         if (shared >= 0 && std::find(openOnes.begin(), openOnes.end(), shared) != openOnes.end()) chosen = shared;
-        else groupExit_[static_cast<std::size_t>(g)] = chosen;
+        else if (shared < 0 || !open_[static_cast<std::size_t>(shared)]) groupExit_[static_cast<std::size_t>(g)] = chosen;
+        // (a member whose journey does not lead to the group's open exit goes its own way)
     }
     current = chosen;
     a.navDir[i] = directionTo(current, a.pos[i], a.navDistance[i]);
