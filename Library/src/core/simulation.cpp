@@ -96,8 +96,9 @@ void Simulation::activatePending() {
             health_.activated(agents_, i);
         }
     } else {
-        // Arrivals of sources take a free place in their area; one that finds none waits (in
-        // order) and tries again next step, ahead of later arrivals.
+        // Arrivals of sources take a free place in their area (a group's members beside its first
+        // member); one that finds none waits (in order) and tries again next step, ahead of later
+        // arrivals (a group's members wait with its first member).
         std::vector<std::size_t> due;
         due.swap(deferred_);
         while (nextPending_ < pending_.size() && spec_.agents[pending_[nextPending_]].startTime <= now)
@@ -106,7 +107,7 @@ void Simulation::activatePending() {
         for (std::size_t k : due) {
             AgentSpec& a = spec_.agents[k];
             if (a.source >= 0) {
-                if (!navigation_->place(agents_, placed, a, spec_.seed, fineSteps_)) {
+                if (!navigation_->placeArrival(agents_, placed, a, spec_.seed, fineSteps_)) {
                     deferred_.push_back(k);
                     continue;
                 }
