@@ -382,11 +382,13 @@ std::vector<std::string> drawSweepPlots(const fs::path& outDir, const std::vecto
                                  " per point)") +
                 " noenhanced font ',14'");
         job.cmd("set grid");
-        job.cmd("set key top left noenhanced font ',9'");
+        job.cmd("set key below horizontal noenhanced font ',9'");
         job.cmd("set xlabel " + chplot::gpString(axes[a].target) + " noenhanced");
         job.cmd("set offsets graph 0.05, graph 0.05, graph 0.05, graph 0.05");
         for (std::size_t k = 0; k < kOutputs.size(); ++k) {
             job.cmd("set title " + chplot::gpString(kOutputLabels[k]) + " noenhanced");
+            if (kOutputs[k] == "verdict_rank") job.cmd("set yrange [-0.3:3.3]; set ytics 1");
+            else job.cmd("set autoscale y; set ytics autofreq");
             std::vector<chplot::Rows> blocks;
             std::vector<std::string> titles;
             for (const auto& [others, combos] : lines) {
