@@ -758,6 +758,9 @@ int sweepCommand(int argc, char* argv[]) {
     }
 
     // ---- (d) what is done already ----
+    // A record being written when the sweep was killed is a NAME.tmp: never read, removed here.
+    for (const auto& e : fs::directory_iterator(recordsDir, ec))
+        if (e.path().extension() == ".tmp") fs::remove(e.path(), ec);
     const std::size_t total = runs.size();
     std::vector<std::optional<SweepResult>> results(total);
     std::vector<std::size_t> todo;

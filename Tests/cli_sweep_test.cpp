@@ -249,3 +249,45 @@ BOOST_AUTO_TEST_CASE(help_text) {
     const Result top = run(d, {"--help"});
     BOOST_TEST(top.out.find("crowdhealth sweep") != std::string::npos);
 }
+
+BOOST_AUTO_TEST_CASE(killed_and_interrupted_sweeps_resume_to_the_same_files) {
+    const fs::path d = freshDir(caseName());
+    const std::vector<std::string> args = {"--vary", "agents.pref_speed=1:1.9:0.1", "--replications", "3", "--jobs", "1",
+                                           "--quiet"};
+    const Result whole = run(d, sweepArgs(d / "whole", args));
+    BOOST_REQUIRE_MESSAGE(whole.status == 0, whole.err);
+    const fs::path records = d / "out" / ".sweep" / "runs";
+    auto recorded = [&] {
+        std::size_t n = 0;
+        if (fs::exists(records))
+            for (const auto& e : fs::directory_iterator(records)) n += e.path().extension() == ".txt";
+        return n;
+    };
+    {  // killed (SIGKILL) after a few runs
+        Background b(d, sweepArgs(d / "out", args));
+        BOOST_REQUIRE(waitFor([&] { return recorded() >= 3; }, 60));
+        b.signal(SIGKILL);
+        BOOST_TEST(b.wait() == 1000 + SIGKILL);
+    }
+    const std::size_t afterKill = recorded();
+    BOOST_TEST_REQUIRE(afterKill < 30u);
+    BOOST_TEST(!fs::exists(d / "out" / "sweep.csv"));
+    {  // resumed, then interrupted (Ctrl-C)
+        Background b(d, sweepArgs(d / "out", args));
+        BOOST_REQUIRE(waitFor([&] { return recorded() >= afterKill + 2 || !b.running(); }, 60));
+        b.signal(SIGINT);
+        const int status = b.wait();
+        if (status == 130) {
+            BOOST_TEST(b.err().find("run the same command again") != std::string::npos, b.err());
+            BOOST_TEST(!fs::exists(d / "out" / "sweep.csv"));
+        } else {
+            BOOST_TEST(status == 0);  // it finished before the signal arrived
+        }
+    }
+    const Result resumed = run(d, sweepArgs(d / "out", args));
+    BOOST_REQUIRE_MESSAGE(resumed.status == 0, resumed.err);
+    BOOST_TEST(recorded() == 30u);
+    BOOST_TEST(withoutWallTime(readFile(d / "out" / "sweep.csv")) == withoutWallTime(readFile(d / "whole" / "sweep.csv")));
+    BOOST_TEST(readFile(d / "out" / "sweep-summary.csv") == readFile(d / "whole" / "sweep-summary.csv"));
+    BOOST_TEST(tmpFiles(d / "out").empty());
+}
