@@ -41,7 +41,7 @@ CROSSING_XML = """<?xml version="1.0" encoding="utf-8"?>
 \t\t<Agent rad="0.25" pref_speed="1.3"><pos x="1" y="1"/><goal x="9" y="3"/><Policy id="0"/></Agent>
 \t\t<Agent rad="0.25"><pos x="1" y="3"/><goal x="9" y="1"/><Policy id="0"/></Agent>
 \t\t<Agent rad="0.3"><pos x="9" y="2"/><goal x="1" y="2"/><Policy id="0"/></Agent>
-\t\t<Agent><pos x="9" y="1.2"/><goal x="1" y="2.8"/><Policy id="0"/></Agent>
+\t\t<Agent><pos x="9" y="1.2345678901"/><goal x="1" y="2.8"/><Policy id="0"/></Agent>
 \t</Agents>
 </Simulation>
 """
@@ -58,7 +58,7 @@ def crossing_in_code():
     s.agent(1, 1, goal=(9, 3), radius=0.25, pref_speed=1.3)
     s.agent(1, 3, goal=(9, 1), radius=0.25)
     s.agent(9, 2, goal=(1, 2), radius=0.3)
-    s.agent(9, 1.2, goal=(1, 2.8))
+    s.agent(9, 1.2345678901, goal=(1, 2.8))  # every digit reaches the loader
     return s
 
 
