@@ -240,7 +240,7 @@ public:
         if (component == "CrowdHealth" && parameter == "fallenRadius")
             throw py::value_error("CrowdHealth.fallenRadius cannot be changed (the neighbour range is set from it when the run starts)");
         if (!inRange(*spec, value))
-            throw py::value_error(std::to_string(value) + " is out of range for " + component + "." + parameter +
+            throw py::value_error(ch::formatNumber(value) + " is out of range for " + component + "." + parameter +
                                   " (allowed: " + spec->rangeText() + ")");
         int hits = 0;
         std::vector<ch::Policy>& policies = sim_->policies();

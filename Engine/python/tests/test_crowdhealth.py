@@ -104,6 +104,7 @@ def test_reading_between_steps_changes_nothing(tmp_path):
     steps = 0
     while sim.step():
         steps += 1
+        assert steps < 2000, "step() goes on past the end"
         sim.field("density"), sim.field("contact_accel"), sim.field("panic"), sim.positions()
     assert sim.finished and not sim.step()
     assert steps == sim.steps
@@ -129,28 +130,44 @@ def test_scenario_error_holds_path_and_line(tmp_path):
 
 def test_positions_velocities_ids_and_fields():
     sim = crowdhealth.Simulation(ROOM, seed=1)
-    sim.run(until=3)
-    assert abs(sim.time - 3.0) < 1e-9
+    sim.run(until=3.45)  # off the metrics interval (1 s): nothing has measured the density at this step
+    assert abs(sim.time - 3.5) < 1e-9
     n = sim.agent_count
     assert 90 < n < 100 and n + sim.evacuated == 100  # the first have left at the exit
     p, v, ids = sim.positions(), sim.velocities(), sim.ids()
     assert p.shape == (n, 2) and p.dtype == np.float64
     assert v.shape == (n, 2) and v.dtype == np.float64
     assert ids.shape == (n,) and ids.dtype == np.int64 and len(set(ids.tolist())) == n
-    assert np.all(np.linalg.norm(v, axis=1) <= 1.8 + 1e-9)  # max_speed of the example
     assert np.all((p[:, 0] > -1) & (p[:, 0] < 16) & (p[:, 1] > -1) & (p[:, 1] < 11))
     for name in ["density", "contact_accel", "panic"]:
         f = sim.field(name)
         assert f.shape == (n,) and f.dtype == np.float64
     rho = sim.field("density")
     assert np.all(rho > 0)  # every agent counts itself
-    # the metrics' mean density is the mean of the same per-agent values (a row at t = 3 s)
+    # the metrics' mean density is the mean of the same per-agent values (the final row, taken at t = 3.5 s)
+    sim.end()
     m = sim.metrics()
     assert m["time"][-1] == sim.time
     assert rho.mean() == pytest.approx(m["mean_density"][-1], rel=1e-12)
     assert np.linalg.norm(v, axis=1).mean() == pytest.approx(m["mean_speed"][-1], rel=1e-12)
+    assert np.linalg.norm(v, axis=1).max() == pytest.approx(m["max_speed"][-1], rel=1e-12)
     with pytest.raises(ValueError, match="unknown field"):
         sim.field("temperature")
+
+
+def test_positions_are_the_agents_places(tmp_path):
+    path = tmp_path / "crossing.xml"
+    path.write_text(CROSSING_XML)
+    sim = crowdhealth.Simulation(path)
+    assert sim.ids().tolist() == [0, 1, 2, 3]
+    assert np.array_equal(sim.positions(), [[1, 1], [1, 3], [9, 2], [9, 1.2345678901]])
+    assert np.array_equal(sim.velocities(), np.zeros((4, 2)))
+    assert np.array_equal(sim.field("radius"), [0.25, 0.25, 0.3, 0.24])
+    sim.run(until=1)
+    p, v = sim.positions(), sim.velocities()
+    assert np.all(v[:2, 0] > 0.3) and np.all(v[2:, 0] < -0.3)  # walking towards their goals
+    sim.step()  # one step of 0.1 s moves each agent by about v dt
+    assert np.allclose(sim.positions(), p + 0.1 * v, atol=0.05)
 
 
 def test_set_parameter_changes_motion(tmp_path):
