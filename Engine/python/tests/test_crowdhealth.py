@@ -291,3 +291,13 @@ def test_examples_run(tmp_path, example):
     r = subprocess.run([sys.executable, str(SRC / "Examples" / "python" / example), "--out", str(tmp_path)],
                        cwd=tmp_path, env=_python_env(), capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stdout + r.stderr
+
+
+def test_warnings_are_scenario_warnings():
+    s = crowdhealth.Scenario()  # no end time: the program warns that the run ends when everyone has left
+    s.policy(0, ["GoalReachingForce"]).agent(0, 0, goal=(2, 0), remove_at_goal=True)
+    with pytest.warns(crowdhealth.ScenarioWarning, match="no end_time"):
+        sim = crowdhealth.Simulation(s)
+    assert "no end_time" in sim.warnings
+    sim.run()
+    assert sim.agent_count == 0 and sim.evacuated == 1 and 1 < sim.time < 3
