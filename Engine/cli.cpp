@@ -98,6 +98,8 @@ void printHelp(std::ostream& out) {
            "       crowdhealth -i SCENARIO -o OUTDIR --replications N [-t THREADS] [--seed S]\n"
            "       crowdhealth -i SCENARIO --check\n"
            "       crowdhealth plot DIR | compare DIR... [-o OUTDIR]   (see 'crowdhealth plot --help')\n"
+           "       crowdhealth sweep -i SCENARIO -o OUTDIR --vary TARGET=VALUES [--vary ...] [--replications N]\n"
+           "                         (parameter studies; see 'crowdhealth sweep --help')\n"
            "       crowdhealth verify [-o DIR] [--quick] [--policy NAME...] [--test ID...] [--jobs N]\n"
            "       crowdhealth --list-policies [--format text|markdown]\n\n"
            "Runs a CrowdHealth (UMANS-compatible) crowd scenario and writes metrics.csv,\n"

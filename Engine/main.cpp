@@ -7,6 +7,7 @@
 #include "plot.h"
 #include "render.h"
 #include "run.h"
+#include "sweep.h"
 #include "verify.h"
 
 #include <exception>
@@ -23,6 +24,8 @@ int main(int argc, char* argv[]) {
         if (argc > 1 && std::string_view(argv[1]) == "compare") return compareCommand(argc - 1, argv + 1);
         // `crowdhealth verify …`: the verification tests for every model (verify.h, docs/verification.md).
         if (argc > 1 && std::string_view(argv[1]) == "verify") return verifyCommand(argc - 1, argv + 1);
+        // `crowdhealth sweep …`: parameter studies (sweep.h, docs/sweeps.md).
+        if (argc > 1 && std::string_view(argv[1]) == "sweep") return sweepCommand(argc - 1, argv + 1);
         const std::optional<Options> options = parseCommandLine(argc, argv, std::cerr);
         if (!options) return kExitInput;
         switch (options->command) {

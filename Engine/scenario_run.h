@@ -23,10 +23,15 @@ namespace chcli {
 /// --flow-first/--flow-last. Prints every error on stderr (and the warnings too when
 /// `printWarnings`) and returns nullopt when the scenario is not usable; nothing is written.
 std::optional<ch::ScenarioSpec> loadSpec(const Options& o, std::optional<std::uint64_t> seed, bool printWarnings);
+/// The same, printing to `err` instead of stderr (the Python module collects the messages).
+std::optional<ch::ScenarioSpec> loadSpec(const Options& o, std::optional<std::uint64_t> seed, bool printWarnings,
+                                         std::ostream& err);
 
 /// Builds the simulation of a loaded spec; on failure (e.g. a component the registry does not
 /// know) prints the reason and returns nullptr.
 std::unique_ptr<ch::Simulation> buildSimulation(const ch::ScenarioSpec& spec, const Options& o);
+/// The same, printing to `err`.
+std::unique_ptr<ch::Simulation> buildSimulation(const ch::ScenarioSpec& spec, const Options& o, std::ostream& err);
 
 /// How a scenario is run: which trajectory files, and until when.
 struct RunPlan {
@@ -43,6 +48,8 @@ struct RunPlan {
 /// trajectory choice is invalid or an agent id does not fit in trajectories.bin; prints the "no
 /// end time" warning, and one about a --trajectory-interval off the coarse steps, when `warn`.
 std::optional<RunPlan> planRun(const Options& o, const ch::ScenarioSpec& spec, bool warn);
+/// The same, printing to `err`.
+std::optional<RunPlan> planRun(const Options& o, const ch::ScenarioSpec& spec, bool warn, std::ostream& err);
 
 /// Creates `dir` and checks that a file can be created in it. Returns the reason it cannot be
 /// used (a complete message line without a trailing newline), or nullopt when it can.
@@ -79,6 +86,59 @@ struct RunOutcome {
     ch::Verdict verdict;       ///< the safety verdict (also in summary.json)
     /// Problems that did not stop the run (an earlier run's file that could not be removed).
     std::vector<std::string> warnings;
+};
+
+/// One run, step by step: the recorders the program keeps during a run (metrics, safety measures
+/// and verdict, measurement lines and areas, trajectories) and the files it writes at the end.
+/// simulateAndWrite drives it; the Python module (Engine/python) drives it one step at a time, so
+/// that both record exactly the same rows.
+class RunSession {
+public:
+    /// Sets the end time override of the plan and the thread count, and opens the trajectory
+    /// files in `trajectoryDir` when the plan asks for trajectories (it must exist). Throws
+    /// std::exception when they cannot be created.
+    RunSession(ch::Simulation& sim, const RunPlan& plan, const std::filesystem::path& trajectoryDir, int threads);
+    ~RunSession();
+    RunSession(const RunSession&) = delete;
+    RunSession& operator=(const RunSession&) = delete;
+
+    /// The records of t = 0, before the first step. Called once, first.
+    void begin();
+    /// True when the run is over: the simulation finished, or (no end time) the safety cap is
+    /// reached (then info().stoppedAtSafetyCap is set).
+    bool done();
+    /// One coarse step and its records.
+    void step();
+    /// The records of the final time (a metrics row and trajectory frame off the interval), and
+    /// the verdict. Called once, after the last step; nothing is recorded afterwards.
+    void end();
+    bool ended() const { return ended_; }
+
+    /// Writes metrics.csv, evacuations.csv, health.csv, heatmap.csv, flows.csv and areas.csv when
+    /// there are lines or areas, the trajectories (moved from trajectoryDir) and summary.json (last)
+    /// atomically into `outDir`, which must exist, and settles its manifest (output_folder.h).
+    /// Calls end() first if it was not called. Returns problems that did not stop the writing;
+    /// throws std::exception when a file cannot be written. `beforeSummary` runs just before
+    /// summary.json is written (tests: a kill at the worst instant).
+    std::vector<std::string> write(const std::filesystem::path& outDir, const std::function<void()>& beforeSummary = {});
+
+    ch::Simulation& simulation() { return sim_; }
+    const ch::MetricsRecorder& metrics() const;
+    /// The run's info (the plan's, with stoppedAtSafetyCap, threads and wall time of the steps so far).
+    ch::RunInfo& info() { return info_; }
+    /// The safety verdict: after end(), the run's; before, that of the run so far.
+    ch::Verdict verdict() const;
+    ch::MetricsPeaks peaks() const;
+
+private:
+    struct Recorders;
+    ch::Simulation& sim_;
+    const RunPlan plan_;
+    std::unique_ptr<Recorders> rec_;
+    ch::RunInfo info_;
+    ch::Verdict verdict_;
+    bool ended_ = false;
+    double wallSeconds_ = 0;
 };
 
 /// Runs `sim` on `threads` OpenMP threads (set in the calling thread) until it finishes, the

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs the Debian packages CrowdHealth needs (when missing), configures CMake in Release
-# into build/ and builds. Called by demo.sh and test.sh; safe to run again.
+# into build/ and builds (the program, the tests, and the Python module into build/python).
+# Called by demo.sh and test.sh; safe to run again.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -13,6 +14,8 @@ PACKAGES=(g++ cmake make pkg-config libtinyxml2-dev libeigen3-dev libboost-progr
           libdxflib-dev
           # crowdhealth-viewer and its test, screenshots/PNG checks (docs/rendering.md)
           libglfw3-dev libgl-dev zlib1g-dev xvfb xauth
+          # the Python module crowdhealth in build/python, its tests and examples (docs/python.md)
+          pybind11-dev python3-dev python3-numpy python3-pytest python3-matplotlib python3-setuptools python3-wheel
           # the C API's install test (docs/c-api.md): gcc comes with g++, pkg-config is above; readelf
           binutils)
 

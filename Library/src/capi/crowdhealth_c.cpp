@@ -15,7 +15,6 @@
 #include <memory>
 #include <new>
 #include <string>
-#include <utility>
 #include <vector>
 
 #ifndef CH_VERSION
@@ -311,10 +310,7 @@ ch_status ch_simulation_set_parameter(ch_simulation* sim, int policy_id, const c
                 return fail(CH_ERROR_INVALID_VALUE, "ch_simulation_set_parameter: " + std::string(component) + "." +
                                                         parameter + " cannot change while running");
         for (ch::Component* c : t.components) c->setParameter(parameter, value);
-        // Simulation exposes its health layer read-only; the object itself is not const (this
-        // handle owns it), so writing through it is well defined, and it is how <Ramp> sets them.
-        ch::HealthLayer& health = const_cast<ch::HealthLayer&>(std::as_const(*sim->sim).health());
-        for (std::size_t p : t.healthPolicies) health.params(p).set(parameter, value);
+        for (std::size_t p : t.healthPolicies) sim->sim->health().params(p).set(parameter, value);
         return CH_OK;
     });
 }

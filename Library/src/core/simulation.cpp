@@ -96,8 +96,9 @@ void Simulation::activatePending() {
             health_.activated(agents_, i);
         }
     } else {
-        // Arrivals of sources take a free place in their area; one that finds none waits (in
-        // order) and tries again next step, ahead of later arrivals.
+        // Arrivals of sources take a free place in their area (a group's members beside its first
+        // member); one that finds none waits (in order) and tries again next step, ahead of later
+        // arrivals (a group's members wait with its first member).
         std::vector<std::size_t> due;
         due.swap(deferred_);
         while (nextPending_ < pending_.size() && spec_.agents[pending_[nextPending_]].startTime <= now)
@@ -106,7 +107,7 @@ void Simulation::activatePending() {
         for (std::size_t k : due) {
             AgentSpec& a = spec_.agents[k];
             if (a.source >= 0) {
-                if (!navigation_->place(agents_, placed, a, spec_.seed, fineSteps_)) {
+                if (!navigation_->placeArrival(agents_, placed, a, spec_.seed, fineSteps_)) {
                     deferred_.push_back(k);
                     continue;
                 }
@@ -459,7 +460,10 @@ void Simulation::removeFinished() {
     bool any = false;
     const double t = time();
     const std::size_t firstNew = evacuations_.size();
+    const bool anyFallen = health_.anyFallen();
     for (std::size_t i = 0; i < n; ++i) {
+        // Someone on the floor (CrowdHealth falls) leaves only once up again.
+        if (anyFallen && health_.isFallen(agents_, i)) continue;
         // A journey ends in an exit (crowdhealth/navigation/navigation.h); a plain goal as in UMANS.
         const int exit = navigation_ && agents_.journey[i] >= 0 ? navigation_->leaves(agents_, i) : -1;
         const bool leaves = navigation_ && agents_.journey[i] >= 0

@@ -525,7 +525,7 @@ void HealthLayer::care(AgentStore& agents, const PointGrid& grid, double time, d
         const std::size_t c = it->second;
         HealthRecord& rc = record(agents, c);
         const HealthParams& hp = params_[static_cast<std::size_t>(agents.policy[i])];
-        const Vec2 d = agents.pos[c] - agents.pos[i];
+        const Vec2 d = grid.offset(agents.pos[i], agents.pos[c]);  // minimum image on a torus
         const double dist = d.norm();
         const Vec2 towards = dist > 1e-12 ? Vec2(d / dist) : Vec2(0, 0);
         if (rc.fallen) {

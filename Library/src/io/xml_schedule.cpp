@@ -2,6 +2,8 @@
 // <PanicEvent> (docs/crowd-health.md, docs/xml-reference.md).
 #include "crowdhealth/health/health.h"
 #include "crowdhealth/core/registry.h"
+#include "crowdhealth/io/output.h"
+#include "crowdhealth/io/xml.h"
 
 #include "xml_internal.h"
 
@@ -199,6 +201,84 @@ void readSchedule(LoadContext& ctx, const std::string& file, const XMLElement* e
         else reportUnexpectedElement(ctx, file, c, el->Name(), {"Ramp", "PanicEvent", "CloseExit", "OpenExit"});
     }
 }
+
+}  // namespace ch::xmlio
+
+namespace ch {
+
+std::string rampTargetProblem(const ScenarioSpec& spec, const RampSpec& ramp) {
+    using namespace xmlio;
+    ParamTable componentTable;
+    const ParamTable* table = nullptr;
+    std::string owner;
+    if (ramp.target == RampSpec::Target::Agents) {
+        table = &agentRampTable();
+        owner = "agents";
+    } else if (ramp.component == "CrowdHealth") {
+        table = &crowdHealthTable();
+        owner = "CrowdHealth";
+    } else if (const ComponentInfo* info = Registry::instance().find(ramp.component)) {
+        componentTable = Registry::fullTable(*info);
+        table = &componentTable;
+        owner = ramp.component;
+    } else {
+        std::vector<std::string> names = Registry::instance().names();
+        names.push_back("CrowdHealth");
+        std::string msg = "unknown component '" + ramp.component + "'";
+        const std::string hint = closestMatch(ramp.component, names);
+        if (!hint.empty()) msg += " (did you mean '" + hint + "'?)";
+        return msg + "; known: " + joined(names);
+    }
+    const ParamSpec* p = nullptr;
+    std::vector<std::string> names;
+    for (const ParamSpec& q : *table) {
+        names.push_back(q.name);
+        if (q.name == ramp.parameter) p = &q;
+    }
+    if (p == nullptr) {
+        std::string msg = owner + " has no parameter '" + ramp.parameter + "'";
+        const std::string hint = closestMatch(ramp.parameter, names);
+        if (!hint.empty()) msg += " (did you mean '" + hint + "'?)";
+        return msg + "; its parameters: " + joined(names);
+    }
+    if (p->type != ParamType::Real) return owner + "." + ramp.parameter + " is not a real number (only real parameters can be ramped)";
+    if (owner == "CrowdHealth" && ramp.parameter == "fallenRadius")
+        return "CrowdHealth.fallenRadius cannot be ramped (the neighbour range is set from it when the run starts)";
+    for (const double v : {ramp.from, ramp.to})
+        if (!inRange(*p, v))
+            return formatNumber(v) + " is out of range for " + owner + "." + ramp.parameter + " (allowed: " + p->rangeText() + ")";
+    if (ramp.target == RampSpec::Target::Agents) return {};
+    bool policyFound = false, found = false;
+    std::vector<std::string> components, ids;
+    for (const PolicySpec& pol : spec.policies) {
+        ids.push_back(std::to_string(pol.id));
+        if (ramp.policyId && pol.id != *ramp.policyId) continue;
+        policyFound = true;
+        if (ramp.component == "CrowdHealth") {
+            found = found || pol.health.has_value();
+            continue;
+        }
+        for (const StepSpec& s : pol.steps)
+            for (const ComponentSpec& c : s.components) {
+                components.push_back(c.name);
+                found = found || c.name == ramp.component;
+            }
+    }
+    if (!policyFound)
+        return "policy " + std::to_string(*ramp.policyId) + " does not exist (defined: " + (ids.empty() ? std::string("none") : joined(ids)) + ")";
+    if (found) return {};
+    const std::string who = ramp.policyId ? "policy " + std::to_string(*ramp.policyId) + " has no" : std::string("no policy has a");
+    if (ramp.component == "CrowdHealth") return who + " <CrowdHealth> layer; add <CrowdHealth/> to the policy";
+    std::string msg = who + " component '" + ramp.component + "'";
+    const std::string hint = closestMatch(ramp.component, components);
+    if (!hint.empty()) msg += " (did you mean '" + hint + "'?)";
+    if (ramp.policyId) msg += "; its components: " + (components.empty() ? std::string("(none)") : joined(components));
+    return msg;
+}
+
+}  // namespace ch
+
+namespace ch::xmlio {
 
 void checkSchedule(LoadContext& ctx) {
     const std::vector<PolicySpec>& policies = ctx.spec.policies;

@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <set>
 #include <sstream>
 
@@ -99,6 +100,10 @@ const ParamTable& sourceTable() {
             ParamSpec::real("premovement", "s", 0, 0, 1e300, "time standing before walking (unless drawn)"),
             ParamSpec::real("max_acceleration", "m/s2", a.maxAcceleration, 0, 1e300, "acceleration limit"),
             ParamSpec::boolean("remove_at_goal", d.removeAtGoal, "a plain <goal>: remove the agent there"),
+            // Groups of 2-20 as Agent@group and AgentGrid@group_size (xml.cpp's assignGroups).
+            ParamSpec::integer("group_size_min", 2, 2, 20, "smallest group drawn (with group_size_max)"),
+            ParamSpec::integer("group_size_max", 2, 2, 20, "largest group drawn (with group_size_min)"),
+            ParamSpec::real("group_share", "-", d.groupShare, 0, 1, "fraction of the arrivals that come in groups"),
         };
         table[4].minExclusive = table[8].minExclusive = true;
         return table;
@@ -373,6 +378,25 @@ void readSource(LoadContext& ctx, const std::string& file, const XMLElement* el)
     s.maxSpeed.value = r.value("max_speed");
     s.premovement.value = r.value("premovement");
     if (s.end < s.start) r.error(r.loc("end"), "Source: end must not be before start");
+    // Groups: both sizes or neither; a share only with sizes.
+    const bool groupMin = r.has("group_size_min"), groupMax = r.has("group_size_max");
+    if (groupMin || groupMax) {
+        const auto lo = r.required("group_size_min"), hi = r.required("group_size_max");
+        if (lo && hi) {
+            if (*lo > *hi)
+                r.error(r.loc("group_size_max"), "Source: group_size_min (" + formatNumber(*lo) +
+                                                     ") must not exceed group_size_max (" + formatNumber(*hi) +
+                                                     "); give them equal for groups of one size");
+            s.groupSizeMin = static_cast<int>(*lo);
+            s.groupSizeMax = static_cast<int>(*hi);
+        }
+    }
+    if (r.has("group_share")) {
+        s.groupShare = r.value("group_share");
+        if (!groupMin && !groupMax)
+            r.error(r.loc("group_share"), "Source@group_share: nobody arrives in a group without group_size_min and "
+                                          "group_size_max; give the group sizes too");
+    }
     std::vector<Vec2> points;
     int pointElements = 0;
     bool hasPolicy = false, hasGoal = false;
@@ -732,9 +756,35 @@ void checkVenue(LoadContext& ctx) {
             return;
         }
     }
+    // Groups drawn by sources are named after their source ("<id>/g<k>"): two sources drawing
+    // groups need ids of their own, and no agent of the file may use such a name.
+    std::map<std::string, const SourceSpec*> drawing;
+    for (const SourceSpec& s : venue.sources) {
+        if (s.groupSizeMin < 2) continue;
+        auto [it, inserted] = drawing.emplace(s.name, &s);
+        if (!inserted)
+            diags.error(s.loc, "Source '" + s.name + "': another <Source> that draws groups has this id (at " +
+                                   it->second->loc.file + ":" + std::to_string(it->second->loc.line) +
+                                   "); their groups are named after it ('" + s.name + "/g1', ...): give each source an id of its own");
+    }
+    if (diags.errorCount() > errorsBefore) return;
     const std::size_t before = spec.agents.size();
     expandSources(spec);
     for (std::size_t k = before; k < spec.agents.size(); ++k) ctx.agentOrigins.push_back({false, spec.agents[k].loc});
+    if (!drawing.empty()) {
+        std::map<std::string, int> drawn;  // group name → its source
+        for (std::size_t k = before; k < spec.agents.size(); ++k)
+            if (!spec.agents[k].group.empty()) drawn.emplace(spec.agents[k].group, spec.agents[k].source);
+        int reported = 0;
+        for (std::size_t k = 0; k < before && reported < 5; ++k) {
+            const auto it = drawn.find(spec.agents[k].group);
+            if (it == drawn.end()) continue;
+            diags.error(spec.agents[k].loc, "group '" + it->first + "' is also a group drawn by Source '" +
+                                                venue.sources[static_cast<std::size_t>(it->second)].name +
+                                                "': give the agent's group another name");
+            ++reported;
+        }
+    }
 }
 
 }  // namespace ch::xmlio

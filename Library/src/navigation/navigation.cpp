@@ -7,7 +7,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <map>
+#include <optional>
 #include <stdexcept>
 
 namespace ch {
@@ -73,6 +75,21 @@ Navigation::Navigation(const ScenarioSpec& spec, const World& world) : spec_(spe
     std::stable_sort(eventOrder_.begin(), eventOrder_.end(), [&](int a, int b) {
         return venue.exitEvents[static_cast<std::size_t>(a)].time < venue.exitEvents[static_cast<std::size_t>(b)].time;
     });
+
+    // Groups drawn by sources: each one's first member (the members are consecutive arrivals).
+    groupFirst_.assign(spec.groups.size(), -1);
+    groupMembers_.assign(spec.groups.size(), {});
+    for (std::size_t k = 0; k < spec.agents.size(); ++k) {
+        const AgentSpec& a = spec.agents[k];
+        if (a.source < 0 || a.groupIndex < 0 || static_cast<std::size_t>(a.groupIndex) >= groupFirst_.size()) continue;
+        const std::size_t g = static_cast<std::size_t>(a.groupIndex);
+        if (groupFirst_[g] < 0) groupFirst_[g] = a.id;
+        groupMembers_[g].push_back(k);
+    }
+    groupExit_.assign(spec.groups.size(), -1);
+    groupPlaced_.assign(spec.groups.size(), 0);
+    groupAnchor_.assign(spec.groups.size(), Vec2(0, 0));
+    groupAnchorStep_.assign(spec.groups.size(), std::numeric_limits<std::uint64_t>::max());
 
     if (!venue.navigation) {
         prepSeconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -190,6 +207,22 @@ void Navigation::activated(AgentStore& a, std::size_t i, const AgentSpec& s, dou
     if (a.target[i] >= 0) a.navDir[i] = directionTo(a.target[i], a.pos[i], a.navDistance[i]);
 }
 
+bool Navigation::freeAt(const Vec2& p, double radius, const std::vector<std::pair<Vec2, double>>& near) const {
+    if (!world_.inside(p) || world_.insideObstacle(p)) return false;
+    if (grid_ && !grid_->walkable(p)) return false;
+    std::vector<int> segs;
+    world_.segmentsNear(p, radius, segs);
+    for (int g : segs) {
+        const Segment& seg = world_.segments()[static_cast<std::size_t>(g)];
+        if (distanceToSegmentSquared(p, seg.a, seg.b) < radius * radius) return false;
+    }
+    for (const auto& [q, r] : near) {
+        const double reach = radius + r;
+        if ((q - p).squaredNorm() < reach * reach) return false;
+    }
+    return true;
+}
+
 bool Navigation::place(const AgentStore& agents, const std::vector<std::pair<Vec2, double>>& placed, AgentSpec& s,
                        std::uint64_t seed, std::uint64_t step) const {
     const SourceSpec& src = spec_.venue.sources[static_cast<std::size_t>(s.source)];
@@ -208,31 +241,116 @@ bool Navigation::place(const AgentStore& agents, const std::vector<std::pair<Vec
     }
     for (const auto& p : placed) near.push_back(p);
     Rng rng(seed, static_cast<std::uint64_t>(s.id), kStreamSource, step + 1);
-    std::vector<int> segs;
     constexpr int kAttempts = 40;
     for (int k = 0; k < kAttempts; ++k) {
         const Vec2 p(rng.uniform(lo.x(), hi.x()), rng.uniform(lo.y(), hi.y()));
         if (!pointInPolygon(p, src.area)) continue;
-        if (!world_.inside(p) || world_.insideObstacle(p)) continue;
-        if (grid_ && !grid_->walkable(p)) continue;
-        world_.segmentsNear(p, s.radius, segs);
-        bool free = true;
-        for (int g : segs) {
-            const Segment& seg = world_.segments()[static_cast<std::size_t>(g)];
-            if (distanceToSegmentSquared(p, seg.a, seg.b) < s.radius * s.radius) {
-                free = false;
-                break;
-            }
-        }
-        for (std::size_t m = 0; free && m < near.size(); ++m) {
-            const double r = s.radius + near[m].second;
-            if ((near[m].first - p).squaredNorm() < r * r) free = false;
-        }
-        if (!free) continue;
+        if (!freeAt(p, s.radius, near)) continue;
         s.position = p;
         return true;
     }
     return false;
+}
+
+namespace {
+/// True when the segments [a, b] and [c, d] cross or touch.
+bool segmentsMeet(const Vec2& a, const Vec2& b, const Vec2& c, const Vec2& d) {
+    const auto cross = [](const Vec2& u, const Vec2& v) { return u.x() * v.y() - u.y() * v.x(); };
+    const double d1 = cross(b - a, c - a), d2 = cross(b - a, d - a);
+    const double d3 = cross(d - c, a - c), d4 = cross(d - c, b - c);
+    if (((d1 > 0 && d2 < 0) || (d1 < 0 && d2 > 0)) && ((d3 > 0 && d4 < 0) || (d3 < 0 && d4 > 0))) return true;
+    // Collinear or touching: an end point on the other segment.
+    const auto on = [&](const Vec2& p, const Vec2& q, const Vec2& r) {  // r on [p, q], given collinear
+        return std::min(p.x(), q.x()) <= r.x() && r.x() <= std::max(p.x(), q.x()) && std::min(p.y(), q.y()) <= r.y() &&
+               r.y() <= std::max(p.y(), q.y());
+    };
+    return (d1 == 0 && on(a, b, c)) || (d2 == 0 && on(a, b, d)) || (d3 == 0 && on(c, d, a)) || (d4 == 0 && on(c, d, b));
+}
+}  // namespace
+
+bool Navigation::placeNear(const AgentStore& agents, const std::vector<std::pair<Vec2, double>>& placed, AgentSpec& s,
+                           const Vec2& anchor, std::uint64_t seed, std::uint64_t step) const {
+    const SourceSpec& src = spec_.venue.sources[static_cast<std::size_t>(s.source)];
+    const double R = kGroupPlacementRadius;
+    const double reach = R + s.radius + 1.0;
+    std::vector<std::pair<Vec2, double>> near;
+    for (std::size_t j = 0; j < agents.size(); ++j)
+        if ((agents.pos[j] - anchor).squaredNorm() <= reach * reach) near.push_back({agents.pos[j], agents.radius[j]});
+    for (const auto& p : placed) near.push_back(p);
+    std::vector<int> segs;
+    world_.segmentsNear(anchor, R, segs);
+    Rng rng(seed, static_cast<std::uint64_t>(s.id), kStreamSourceGroup, step + 1);
+    constexpr int kAttempts = 40;
+    for (int k = 0; k < kAttempts; ++k) {
+        // Uniform in the disc of radius R round the anchor.
+        const double r = R * std::sqrt(rng.uniform()), phi = 2 * kPi * rng.uniform();
+        const Vec2 p = anchor + r * Vec2(std::cos(phi), std::sin(phi));
+        // The first half of the attempts keep to the source's area; the rest may step out of it
+        // (a narrow area), still on free floor in sight of the anchor.
+        if (k < kAttempts / 2 && !pointInPolygon(p, src.area)) continue;
+        if (!freeAt(p, s.radius, near)) continue;
+        bool seen = true;
+        for (std::size_t m = 0; seen && m < segs.size(); ++m) {
+            const Segment& seg = world_.segments()[static_cast<std::size_t>(segs[m])];
+            seen = !segmentsMeet(anchor, p, seg.a, seg.b);
+        }
+        if (!seen) continue;
+        s.position = p;
+        return true;
+    }
+    return false;
+}
+
+bool Navigation::placeArrival(const AgentStore& agents, const std::vector<std::pair<Vec2, double>>& placed,
+                              AgentSpec& s, std::uint64_t seed, std::uint64_t step) {
+    const std::size_t g = static_cast<std::size_t>(s.groupIndex);
+    if (s.source < 0 || s.groupIndex < 0 || g >= groupFirst_.size() || groupFirst_[g] < 0)
+        return place(agents, placed, s, seed, step);
+    const std::vector<std::size_t>& members = groupMembers_[g];
+    if (s.id == groupFirst_[g]) {
+        if (!place(agents, placed, s, seed, step)) return false;
+        // Places for the others beside it, all or none: the group arrives together or waits. After
+        // kGroupPatience s of waiting it arrives as it fits (the others near it, else anywhere in
+        // the area, else in a later step).
+        const double now = static_cast<double>(step) * spec_.fineStep();
+        const bool patient = now <= s.startTime + kGroupPatience;
+        reserved_.clear();
+        if (patient) {
+            std::vector<std::pair<Vec2, double>> taken = placed;
+            taken.push_back({s.position, s.radius});
+            for (std::size_t m = 1; m < members.size(); ++m) {
+                AgentSpec other = spec_.agents[members[m]];
+                if (!placeNear(agents, taken, other, s.position, seed, step) && !place(agents, taken, other, seed, step)) {
+                    reserved_.clear();
+                    return false;
+                }
+                taken.push_back({other.position, other.radius});
+                reserved_.push_back({other.id, other.position});
+            }
+        }
+        groupPlaced_[g] = 1;
+        groupAnchor_[g] = s.position;
+        groupAnchorStep_[g] = step;
+        return true;
+    }
+    if (!groupPlaced_[g]) return false;  // waits for the first member: the group arrives in one step
+    if (groupAnchorStep_[g] == step)
+        for (const auto& [id, at] : reserved_)
+            if (id == s.id) {
+                s.position = at;
+                return true;
+            }
+    // Arriving as it fits (an impatient group, or a member deferred to a later step): beside the
+    // first member when it came this step, else beside a member already walking (the first in the store).
+    std::optional<Vec2> anchor;
+    if (groupAnchorStep_[g] == step) {
+        anchor = groupAnchor_[g];
+    } else {
+        for (std::size_t j = 0; j < agents.size() && !anchor; ++j)
+            if (agents.group[j] == s.groupIndex) anchor = agents.pos[j];
+    }
+    if (anchor && placeNear(agents, placed, s, *anchor, seed, step)) return true;
+    return place(agents, placed, s, seed, step);
 }
 
 void Navigation::chooseExit(AgentStore& a, std::size_t i, double t, std::uint64_t seed) {
@@ -345,6 +463,16 @@ void Navigation::chooseExit(AgentStore& a, std::size_t i, double t, std::uint64_
         }
     }
     if (chosen < 0) chosen = nearest();
+    // A social group leaves by one exit: members heading for different exits would pull each
+    // other back (the SocialGroups force) and stall between them. The first member to choose picks
+    // by the rule; the others take its exit while it is open (they do not re-evaluate it one by one).
+    const int g = a.group[i];
+    if (g >= 0 && static_cast<std::size_t>(g) < groupExit_.size()) {
+        const int shared = groupExit_[static_cast<std::size_t>(g)];
+        if (shared >= 0 && std::find(openOnes.begin(), openOnes.end(), shared) != openOnes.end()) chosen = shared;
+        else if (shared < 0 || !open_[static_cast<std::size_t>(shared)]) groupExit_[static_cast<std::size_t>(g)] = chosen;
+        // (a member whose journey does not lead to the group's open exit goes its own way)
+    }
     current = chosen;
     a.navDir[i] = directionTo(current, a.pos[i], a.navDistance[i]);
 }

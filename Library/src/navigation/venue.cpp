@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string>
 
 namespace ch {
 
@@ -73,6 +74,13 @@ std::vector<double> sourceArrivals(const SourceSpec& s, std::size_t limit) {
     return times;
 }
 
+double sourceGroupProbability(const SourceSpec& s) {
+    if (s.groupSizeMin < 2) return 0;
+    const double share = std::clamp(s.groupShare, 0.0, 1.0);
+    const double meanSize = 0.5 * (s.groupSizeMin + s.groupSizeMax);
+    return share / (share + (1 - share) * meanSize);
+}
+
 void expandSources(ScenarioSpec& spec) {
     for (std::size_t k = 0; k < spec.venue.sources.size(); ++k) {
         const SourceSpec& s = spec.venue.sources[k];
@@ -80,24 +88,42 @@ void expandSources(ScenarioSpec& spec) {
         Vec2 centre(0, 0);
         for (const Vec2& p : s.area) centre += p;
         if (!s.area.empty()) centre /= static_cast<double>(s.area.size());
-        for (std::size_t n = 0; n < times.size(); ++n) {
-            Rng rng(spec.seed, kStreamSource, k, n);
-            AgentSpec a;
-            a.position = centre;  // replaced by the place chosen on arrival
-            a.goal = s.goal;
-            a.radius = s.radius.draw(rng);
-            a.prefSpeed = s.prefSpeed.draw(rng);
-            a.maxSpeed = std::max(s.maxSpeed.draw(rng), a.prefSpeed);
-            a.premovement = std::max(0.0, s.premovement.draw(rng));
-            a.maxAcceleration = s.maxAcceleration;
-            a.mass = (a.radius / 0.24) * (a.radius / 0.24);
-            a.removeAtGoal = s.removeAtGoal;
-            a.startTime = times[n];
-            a.policyId = s.policyId;
-            a.journey = s.journey;
-            a.source = static_cast<int>(k);
-            a.loc = s.loc;
-            spec.agents.push_back(std::move(a));
+        const double groupProbability = sourceGroupProbability(s);
+        int groups = 0;
+        // Units of consecutive arrivals: one person, or a group arriving at its first member's time.
+        for (std::size_t first = 0; first < times.size();) {
+            std::size_t size = 1;
+            if (groupProbability > 0) {
+                Rng rng(spec.seed, kStreamSourceGroup, k, first);
+                if (rng.uniform() < groupProbability) {
+                    const int span = s.groupSizeMax - s.groupSizeMin + 1;
+                    size = static_cast<std::size_t>(
+                        s.groupSizeMin + std::min(span - 1, static_cast<int>(rng.uniform() * span)));
+                }
+            }
+            size = std::min(size, times.size() - first);  // `count` or `end` cuts the last group
+            const std::string group = size >= 2 ? s.name + "/g" + std::to_string(++groups) : std::string();
+            for (std::size_t n = first; n < first + size; ++n) {
+                Rng rng(spec.seed, kStreamSource, k, n);
+                AgentSpec a;
+                a.position = centre;  // replaced by the place chosen on arrival
+                a.goal = s.goal;
+                a.radius = s.radius.draw(rng);
+                a.prefSpeed = s.prefSpeed.draw(rng);
+                a.maxSpeed = std::max(s.maxSpeed.draw(rng), a.prefSpeed);
+                a.premovement = std::max(0.0, s.premovement.draw(rng));
+                a.maxAcceleration = s.maxAcceleration;
+                a.mass = (a.radius / 0.24) * (a.radius / 0.24);
+                a.removeAtGoal = s.removeAtGoal;
+                a.startTime = times[first];
+                a.policyId = s.policyId;
+                a.journey = s.journey;
+                a.source = static_cast<int>(k);
+                a.group = group;
+                a.loc = s.loc;
+                spec.agents.push_back(std::move(a));
+            }
+            first += size;
         }
     }
 }

@@ -46,6 +46,16 @@ public:
     /// Cell width (x) actually used (≥ the requested size; larger for far-flung points).
     double cellSize() const { return cw_; }
 
+    /// to − from, the shortest such vector on a torus (the domain of the last build()).
+    Vec2 offset(const Vec2& from, const Vec2& to) const {
+        Vec2 d = to - from;
+        if (periodic_) {
+            if (width_ > 0) d.x() -= width_ * std::round(d.x() / width_);
+            if (height_ > 0) d.y() -= height_ * std::round(d.y() / height_);
+        }
+        return d;
+    }
+
 private:
     const std::vector<Vec2>* points_ = nullptr;
     double cw_ = 1, ch_ = 1;  ///< cell width and height (m); equal except on a torus

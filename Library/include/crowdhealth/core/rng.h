@@ -42,6 +42,7 @@ enum RngStream : std::uint64_t {
     kStreamSymmetry = 5,  ///< symmetry breaking of the preferred direction (ScenarioSpec::symmetryBreaking)
     kStreamExitChoice = 6,  ///< weighted exit choice (crowdhealth/navigation/navigation.h)
     kStreamSource = 7,      ///< attributes and places of agents created by sources
+    kStreamSourceGroup = 8, ///< groups drawn by sources: sizes, and members' places beside the first
     kStreamHelp = 9,        ///< whether an agent helps a casualty (crowdhealth/health/health.h)
     kStreamUser = 100  ///< first id free for new components
 };

@@ -134,6 +134,9 @@ public:
 
     /// The CrowdHealth layer: per-agent crush and panic records (crowdhealth/health/health.h).
     const HealthLayer& health() const { return health_; }
+    /// The same, to change a policy's layer parameters while running (the Python module's
+    /// set_parameter, addressed as <Ramp> does).
+    HealthLayer& health() { return health_; }
     /// Names of the metrics.csv columns of the ramped parameters (RampSpec::column), one per
     /// distinct target, in order of first appearance in the schedule.
     const std::vector<std::string>& scheduleColumns() const { return scheduleColumns_; }

@@ -23,6 +23,14 @@ struct LoadOptions {
 std::optional<ScenarioSpec> loadScenario(const std::string& path, Diagnostics& diags,
                                          const LoadOptions& options = {});
 
+/// Checks that `ramp` could be a <Ramp> of `spec` as the loader checks one: the component (a
+/// registered one or CrowdHealth) or agents="all", a real parameter of its table that may be
+/// ramped, `from` and `to` within its range, and (Component) a policy of `spec` holding it
+/// (ramp.policyId absent: any policy). Returns the reason it could not, without a location
+/// (e.g. "SPH has no parameter 'x' (did you mean 'y'?); its parameters: …"), or "" when it can.
+/// Used by `crowdhealth sweep --vary` (Engine/sweep.cpp) so a sweep target is checked the same way.
+std::string rampTargetProblem(const ScenarioSpec& spec, const RampSpec& ramp);
+
 /// The attributes of <Simulation> with their units, defaults and ranges (the loader's table; the
 /// hand-written table of docs/xml-reference.md is checked against it).
 const ParamTable& simulationTable();

@@ -9,7 +9,8 @@
 //   3. (serial, in agent order, on the state of 2) arrivals: an agent inside its waypoint starts
 //      its dwell (admitted first at a checkpoint with a capacity), then goes on to the next stage;
 //      a checkpoint admits its free places to the nearest waiting agents (ties by id); agents at
-//      the exit stage choose an exit by their set's rule (quickest: re-evaluated every interval);
+//      the exit stage choose an exit by their set's rule (quickest: re-evaluated every interval;
+//      a social group's members take the exit its first member to choose picked, while it is open);
 //   4. the preferred velocity: direction × preferred speed, zero while the agent waits (its
 //      premovement time, a dwell, or a queue in front of a full checkpoint) or stands at its last
 //      waypoint.
@@ -54,6 +55,22 @@ public:
     /// was found in this step's attempts (the arrival waits for the next step).
     bool place(const AgentStore& agents, const std::vector<std::pair<Vec2, double>>& placed, AgentSpec& s,
                std::uint64_t seed, std::uint64_t step) const;
+    /// The place of a source's arrival at fine step `step`, groups included (what the simulation
+    /// calls, arrivals in order; a group's members come one after the other). An agent alone:
+    /// place(). A group's first member: place(), then a place for every other member — a free
+    /// point within kGroupPlacementRadius of the first member, in sight of it (placeNear), else
+    /// place() — all or none: when one finds no room the first member waits too (false), and
+    /// the group tries again next step. The other members then take the places kept for them
+    /// (and wait, false, while the first member waits), so a group arrives in one step. A group
+    /// that has waited more than kGroupPatience arrives as it fits: its first member alone, each
+    /// other member beside it or anywhere in the area, else in a later step beside a member
+    /// already walking.
+    bool placeArrival(const AgentStore& agents, const std::vector<std::pair<Vec2, double>>& placed, AgentSpec& s,
+                      std::uint64_t seed, std::uint64_t step);
+    /// m: a group member is placed within this distance of its first member (centre to centre).
+    static constexpr double kGroupPlacementRadius = 1.5;
+    /// s a group waits for room for all its members before arriving as it fits.
+    static constexpr double kGroupPatience = 10.0;
 
     /// Steps 1–3 above at time t (s).
     void update(AgentStore& agents, double t, std::uint64_t seed);
@@ -102,9 +119,27 @@ private:
     std::vector<Service> services_;
     std::vector<std::vector<double>> queues_;  ///< per target: sorted distances of those heading there
     bool quickest_ = false;                    ///< some exit set chooses by the quickest rule
+    /// Per social group (ScenarioSpec::groups), for groups drawn by sources: the id of its first
+    /// member (-1: not a source's group), whether that member has been placed, where, and in which step.
+    std::vector<AgentId> groupFirst_;
+    std::vector<std::vector<std::size_t>> groupMembers_;  ///< per group: its members (indices into spec agents)
+    std::vector<std::pair<AgentId, Vec2>> reserved_;      ///< places kept for the group placed last
+    /// Per social group (every group, declared or drawn): the exit its first member to choose
+    /// picked; the others take it while it is open (-1: none yet).
+    std::vector<int> groupExit_;
+    std::vector<unsigned char> groupPlaced_;
+    std::vector<Vec2> groupAnchor_;
+    std::vector<std::uint64_t> groupAnchorStep_;
     double prepSeconds_ = 0;
 
     int goalTarget(const Vec2& goal) const;
+    /// True when a body of `radius` at p is inside the world, outside obstacles, on walkable floor,
+    /// at least `radius` from every wall, and overlaps none of `near` (centre, radius).
+    bool freeAt(const Vec2& p, double radius, const std::vector<std::pair<Vec2, double>>& near) const;
+    /// A free point for `s` within kGroupPlacementRadius of `anchor` with no wall between them
+    /// (the first half of the attempts also inside the source's area); false when none was found.
+    bool placeNear(const AgentStore& agents, const std::vector<std::pair<Vec2, double>>& placed, AgentSpec& s,
+                   const Vec2& anchor, std::uint64_t seed, std::uint64_t step) const;
     /// True when agent i has passed every waypoint of its journey (heading for an exit or done).
     bool leaving(const AgentStore& a, std::size_t i) const;
     /// Agent i goes on from its current waypoint to the next stage.

@@ -96,6 +96,14 @@ struct SourceSpec {
     DrawSpec radius, prefSpeed, maxSpeed, premovement;
     double maxAcceleration = 5.0;
     bool removeAtGoal = true;
+    /// Social groups (docs/navigation.md, "Sources"): 0 = everyone arrives alone; otherwise
+    /// arrivals come in groups whose size is drawn uniformly in [groupSizeMin, groupSizeMax]
+    /// (2..20). A group is consecutive arrivals, all arriving at the first one's time, named
+    /// "<name>/g<k>" (AgentSpec::group); `count` and `end` cut the last group short.
+    int groupSizeMin = 0, groupSizeMax = 0;
+    /// Fraction of the arrivals (people, in expectation) that come in groups (0..1); the rest
+    /// arrive alone. Used only with group sizes.
+    double groupShare = 1;
     SourceLoc loc;
 };
 
@@ -134,6 +142,15 @@ std::vector<double> sourceArrivals(const SourceSpec& s, std::size_t limit);
 /// Appends one AgentSpec per arrival of every source to spec.agents (start_time = arrival, the
 /// drawn attributes, `source` set; the position is chosen when the agent arrives). Attributes are
 /// drawn from streams keyed by (seed, source, arrival), so they depend only on the file and seed.
+/// A source with group sizes partitions its arrivals into groups (sizes from streams keyed by
+/// (seed, source, first arrival of the group)): the members get the group's name in
+/// AgentSpec::group and the first member's start_time. Groups of one are not named (the agent
+/// walks alone). AgentSpec::groupIndex and ScenarioSpec::groups are left to the loader (it indexes
+/// every group of the file, these included).
 void expandSources(ScenarioSpec& spec);
+/// Probability that a unit of arrivals (a group or one person) of `s` is a group, so that the
+/// expected share of people arriving in groups is s.groupShare: q = share / (share + (1 − share)·E),
+/// E = (min + max)/2 the mean group size. 0 without group sizes.
+double sourceGroupProbability(const SourceSpec& s);
 
 }  // namespace ch

@@ -1,0 +1,225 @@
+"""CrowdHealth from Python (docs/python.md).
+
+    import crowdhealth
+    sim = crowdhealth.Simulation("Examples/doorway/base-case.xml", seed=1)
+    sim.run(until=10)
+    xy = sim.positions()          # N x 2 float64, in the order of sim.ids()
+    sim.run()
+    sim.write_outputs("out")      # metrics.csv ... as `crowdhealth -i ... -o out` writes them
+
+A scenario can also be built in code with Scenario (no XML file to write); it is checked by the
+program's own loader, so it is accepted or refused exactly as the same scenario in a file.
+"""
+import inspect
+import os
+import re
+import tempfile
+from xml.sax.saxutils import quoteattr
+
+from ._crowdhealth import ScenarioError, ScenarioWarning, list_policies, metrics_columns
+from ._crowdhealth import Simulation as _Simulation
+
+__all__ = ["Simulation", "Scenario", "ScenarioError", "ScenarioWarning", "list_policies", "metrics_columns"]
+
+
+def _number(v):
+    """A number as the loader reads it back exactly (repr is the shortest round-trip text)."""
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, (int, float)):
+        return repr(float(v)) if isinstance(v, float) else str(v)
+    return str(v)
+
+
+def _attrs(d):
+    return "".join(" %s=%s" % (k, quoteattr(_number(v))) for k, v in d.items() if v is not None)
+
+
+def _caller():
+    """file:line of the user's call into the builder (for error messages)."""
+    here = os.path.dirname(os.path.abspath(__file__))
+    for frame in inspect.stack()[2:]:
+        if os.path.dirname(os.path.abspath(frame.filename)) != here:
+            return "%s:%d" % (frame.filename, frame.lineno)
+    return "?"
+
+
+class Scenario:
+    """A scenario built in code: world, obstacles, policies with their parameters, agents.
+
+    Every method returns the Scenario, so calls chain. Pass it to Simulation() in place of a path.
+    The loader checks it when the Simulation is made: a bad value raises ScenarioError naming the
+    builder call (file:line) that gave it.
+    """
+
+    def __init__(self, delta_time=0.1, delta_time_fine=None, end_time=None, seed=1, symmetry_breaking=None,
+                 name="scenario built in Python"):
+        self.name = name
+        self._sim = dict(delta_time=delta_time, delta_time_fine=delta_time_fine, end_time=end_time, seed=seed,
+                         symmetry_breaking=symmetry_breaking)
+        self._world = ("Infinite", {})
+        self._obstacles = []   # (xml, origin)
+        self._policies = {}    # id -> [attrs, [steps], crowd_health or None, origin]
+        self._agents = []      # (xml, origin)
+        self._output = {}
+        self._ramps = []       # (xml, origin)
+
+    # ---- world and obstacles ----------------------------------------------------------------
+    def world(self, type="infinite", width=None, height=None, xmin=None, xmax=None, ymin=None, ymax=None):
+        """type: "infinite", "toric" (width, height) or "planar" (xmin, xmax, ymin, ymax)."""
+        kind = {"infinite": "Infinite", "toric": "Toric", "planar": "Planar"}.get(str(type).lower())
+        if kind is None:
+            raise ValueError("world type must be infinite, toric or planar, not %r" % (type,))
+        self._world = (kind, dict(width=width, height=height, xmin=xmin, xmax=xmax, ymin=ymin, ymax=ymax), _caller())
+        return self
+
+    def obstacle(self, points):
+        """A closed polygon: a list of (x, y) in m."""
+        pts = "".join("<Point%s/>" % _attrs(dict(x=float(x), y=float(y))) for x, y in points)
+        self._obstacles.append(("<Obstacle>%s</Obstacle>" % pts, _caller()))
+        return self
+
+    def box(self, x, y, width, height):
+        """An axis-aligned rectangle with its lower-left corner at (x, y) (UMANS' <Box>)."""
+        self._obstacles.append(("<Box%s/>" % _attrs(dict(x=x, y=y, width=width, height=height)), _caller()))
+        return self
+
+    # ---- policies ---------------------------------------------------------------------------
+    def policy(self, id, components, timing="coarse", method="gradient", relaxation_time=None,
+               contact_force_scale=None, crowd_health=None, **step_options):
+        """A policy with one step. components: list of names, (name, params) or (name, coeff, params),
+        where params is a dict of the component's parameters (crowdhealth.list_policies() lists them).
+        timing: "coarse" or "fine"; method: "gradient", "sampling" or "global".
+        crowd_health: None (the layer measures with its defaults) or a dict of <CrowdHealth> parameters.
+        More steps: step(id, ...)."""
+        if id in self._policies:
+            raise ValueError("policy %d is defined already" % id)
+        self._policies[id] = [dict(id=id, ContactForceScale=contact_force_scale), [], crowd_health, _caller()]
+        self._add_step(id, components, timing, method, relaxation_time, step_options, _caller())
+        return self
+
+    def step(self, policy, components, timing="coarse", method="gradient", relaxation_time=None, **step_options):
+        """Adds another step to a policy (evaluated in order, UMANS' <Step>)."""
+        if policy not in self._policies:
+            raise ValueError("policy %d is not defined (call policy() first)" % policy)
+        self._add_step(policy, components, timing, method, relaxation_time, step_options, _caller())
+        return self
+
+    def _add_step(self, policy, components, timing, method, relaxation_time, options, origin):
+        parts = []
+        for c in components:
+            if isinstance(c, str):
+                name, coeff, params = c, None, {}
+            elif len(c) == 2:
+                name, coeff, params = c[0], None, c[1]
+            else:
+                name, coeff, params = c
+            parts.append("<CostFunction%s/>" % _attrs(dict(name=name, coeff=coeff, **params)))
+        attrs = dict(DeltaTime=timing, OptimizationMethod=method, RelaxationTime=relaxation_time, **options)
+        self._policies[policy][1].append(("<Step%s>%s</Step>" % (_attrs(attrs), "".join(parts)), origin))
+
+    # ---- agents -----------------------------------------------------------------------------
+    def agent(self, x, y, goal=None, policy=0, id=None, radius=None, pref_speed=None, max_speed=None,
+              max_acceleration=None, mass=None, remove_at_goal=None, goal_radius=None, start_time=None, group=None):
+        """One agent at (x, y) m walking to goal (x, y) with the given policy id."""
+        attrs = dict(id=id, rad=radius, pref_speed=pref_speed, max_speed=max_speed, max_acceleration=max_acceleration,
+                     mass=mass, remove_at_goal=remove_at_goal, goal_radius=goal_radius, start_time=start_time,
+                     group=group)
+        inner = "<pos%s/>" % _attrs(dict(x=float(x), y=float(y)))
+        if goal is not None:
+            inner += "<goal%s/>" % _attrs(dict(x=float(goal[0]), y=float(goal[1])))
+        inner += "<Policy%s/>" % _attrs(dict(id=policy))
+        self._agents.append(("<Agent%s>%s</Agent>" % (_attrs(attrs), inner), _caller()))
+        return self
+
+    def agents(self, positions, goal=None, **attributes):
+        """Several agents (positions: an iterable of (x, y), e.g. an N x 2 numpy array) with the same
+        goal and attributes (those of agent())."""
+        for x, y in positions:
+            self.agent(float(x), float(y), goal=goal, **attributes)
+        return self
+
+    # ---- schedule and output ----------------------------------------------------------------
+    def ramp(self, component, parameter, start_value, end_value, start, end, policy=None):
+        """<Ramp>: moves component.parameter from start_value (at `start` s) to end_value (at `end`)."""
+        self._ramps.append(("<Ramp%s/>" % _attrs(dict(component=component, policy=policy, parameter=parameter,
+                                                        **{"from": start_value, "to": end_value},
+                                                        start=start, end=end)), _caller()))
+        return self
+
+    def output(self, metrics_interval=None, trajectories=None, trajectory_interval=None, flow_first=None,
+               flow_last=None):
+        """<Output>: metrics interval (s), trajectory files (none, txt, bin, umans, both), ..."""
+        self._output = dict(metrics_interval=metrics_interval, trajectories=trajectories,
+                            trajectory_interval=trajectory_interval, flow_first=flow_first, flow_last=flow_last)
+        self._output_origin = _caller()
+        return self
+
+    # ---- to the loader ----------------------------------------------------------------------
+    def _lines(self):
+        """The scenario as the loader reads it: (text, origin) per line."""
+        out = [('<?xml version="1.0" encoding="utf-8"?>', None), ("<Simulation%s>" % _attrs(self._sim), None)]
+        kind, bounds = self._world[0], self._world[1]
+        origin = self._world[2] if len(self._world) > 2 else None
+        out.append(("<World%s>" % _attrs(dict(type=kind, **bounds)), origin))
+        for xml, origin in self._obstacles:
+            out.append((xml, origin))
+        out.append(("</World>", None))
+        out.append(("<Policies>", None))
+        for pid, (attrs, steps, health, origin) in self._policies.items():
+            out.append(("<Policy%s>" % _attrs(attrs), origin))
+            for xml, o in steps:
+                out.append((xml, o))
+            if health is not None:
+                out.append(("<CrowdHealth%s/>" % _attrs(health), origin))
+            out.append(("</Policy>", origin))
+        out.append(("</Policies>", None))
+        if self._ramps:
+            out.append(("<Schedule>", None))
+            out.extend(self._ramps)
+            out.append(("</Schedule>", None))
+        if any(v is not None for v in self._output.values()):
+            out.append(("<Output%s/>" % _attrs(self._output), getattr(self, "_output_origin", None)))
+        out.append(("<Agents>", None))
+        out.extend(self._agents)
+        out.append(("</Agents>", None))
+        out.append(("</Simulation>", None))
+        return out
+
+    def to_xml(self):
+        """The scenario as an XML file the program reads (to run it with `crowdhealth -i`)."""
+        return "\n".join(text for text, _ in self._lines()) + "\n"
+
+
+class Simulation(_Simulation):
+    __doc__ = """Simulation(path_or_scenario, seed=None, threads=1)
+
+    Loads a scenario file exactly as the program does (`crowdhealth -i path [--seed S] -t threads`),
+    or a Scenario built in code. A bad scenario raises ScenarioError (its message holds the
+    `path:line: error:` lines); the loader's warnings are issued as ScenarioWarning.
+    """
+
+    def __init__(self, path, seed=None, threads=1):
+        if not isinstance(path, Scenario):
+            super().__init__(os.fspath(path), seed, threads)
+            return
+        lines = path._lines()
+        fd, tmp = tempfile.mkstemp(prefix="crowdhealth-scenario-", suffix=".xml")
+        try:
+            with os.fdopen(fd, "w", encoding="utf-8") as f:
+                f.write("\n".join(text for text, _ in lines) + "\n")
+            try:
+                super().__init__(tmp, seed, threads, path.name)
+            except ScenarioError as e:
+                raise ScenarioError(_explain(str(e), tmp, lines, path.name)) from None
+        finally:
+            os.unlink(tmp)
+
+
+def _explain(message, tmp, lines, name):
+    """Replaces `tmp.xml:N:` by the builder call that made line N."""
+    def where(m):
+        n = int(m.group(1))
+        origin = lines[n - 1][1] if 1 <= n <= len(lines) else None
+        return "%s: (%s, %s)" % (origin or name, name, lines[n - 1][0][:60] if 1 <= n <= len(lines) else "")
+    return re.sub(re.escape(tmp) + r":(\d+):", where, message).replace(tmp, name)

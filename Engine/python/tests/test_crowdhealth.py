@@ -1,0 +1,303 @@
+"""The Python module against the program: byte-identical outputs, errors, parameters, arrays,
+scenarios built in code, the registry, the docs' example and Examples/python (docs/python.md).
+
+Run through ctest (Engine/python/CMakeLists.txt sets PYTHONPATH, CROWDHEALTH_PROGRAM and
+CROWDHEALTH_SOURCE_DIR), or by hand:
+    PYTHONPATH=build/python python3 -m pytest Engine/python/tests
+"""
+import os
+import pathlib
+import re
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import crowdhealth
+
+SRC = pathlib.Path(os.environ.get("CROWDHEALTH_SOURCE_DIR", pathlib.Path(__file__).resolve().parents[3]))
+PROGRAM = os.environ.get("CROWDHEALTH_PROGRAM", str(SRC / "build" / "bin" / "crowdhealth"))
+ROOM = SRC / "Examples" / "room" / "exit-socialforces-steps.xml"
+
+# A small corridor crossing, written by hand (the builder test rebuilds it in code).
+CROSSING_XML = """<?xml version="1.0" encoding="utf-8"?>
+<Simulation delta_time="0.1" end_time="6" seed="4">
+\t<World type="Planar" xmin="-1" xmax="11" ymin="-1" ymax="5">
+\t\t<Box x="0" y="-1" width="10" height="1"/>
+\t\t<Obstacle><Point x="0" y="4"/><Point x="10" y="4"/><Point x="10" y="5"/><Point x="0" y="5"/></Obstacle>
+\t</World>
+\t<Policies>
+\t\t<Policy id="0">
+\t\t\t<Step DeltaTime="coarse" OptimizationMethod="gradient" RelaxationTime="0.5">
+\t\t\t\t<CostFunction name="GoalReachingForce"/>
+\t\t\t\t<CostFunction name="SocialForcesAvoidance" range="3"/>
+\t\t\t</Step>
+\t\t\t<CrowdHealth panicDecay="0.1"/>
+\t\t</Policy>
+\t</Policies>
+\t<Output metrics_interval="0.5"/>
+\t<Agents>
+\t\t<Agent rad="0.25" pref_speed="1.3"><pos x="1" y="1"/><goal x="9" y="3"/><Policy id="0"/></Agent>
+\t\t<Agent rad="0.25"><pos x="1" y="3"/><goal x="9" y="1"/><Policy id="0"/></Agent>
+\t\t<Agent rad="0.3"><pos x="9" y="2"/><goal x="1" y="2"/><Policy id="0"/></Agent>
+\t\t<Agent><pos x="9" y="1.2345678901"/><goal x="1" y="2.8"/><Policy id="0"/></Agent>
+\t</Agents>
+</Simulation>
+"""
+
+
+def crossing_in_code():
+    s = crowdhealth.Scenario(delta_time=0.1, end_time=6, seed=4)
+    s.world("planar", xmin=-1, xmax=11, ymin=-1, ymax=5)
+    s.box(0, -1, 10, 1)
+    s.obstacle([(0, 4), (10, 4), (10, 5), (0, 5)])
+    s.policy(0, ["GoalReachingForce", ("SocialForcesAvoidance", {"range": 3})], timing="coarse",
+             method="gradient", relaxation_time=0.5, crowd_health={"panicDecay": 0.1})
+    s.output(metrics_interval=0.5)
+    s.agent(1, 1, goal=(9, 3), radius=0.25, pref_speed=1.3)
+    s.agent(1, 3, goal=(9, 1), radius=0.25)
+    s.agent(9, 2, goal=(1, 2), radius=0.3)
+    s.agent(9, 1.2345678901, goal=(1, 2.8))  # every digit reaches the loader
+    return s
+
+
+def run_program(scenario, out, *args):
+    r = subprocess.run([PROGRAM, "-i", str(scenario), "-o", str(out), "-q", "-t", "1", *args],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    return out
+
+
+def test_metrics_csv_byte_identical_to_the_program(tmp_path):
+    prog = run_program(ROOM, tmp_path / "prog", "--seed", "3")
+    sim = crowdhealth.Simulation(ROOM, seed=3)
+    sim.run()
+    sim.write_outputs(str(tmp_path / "py"))
+    for name in ["metrics.csv", "evacuations.csv", "health.csv", "heatmap.csv"]:
+        assert (tmp_path / "py" / name).read_bytes() == (prog / name).read_bytes(), name
+    # metrics() holds the same numbers as the file, column by column
+    m = sim.metrics()
+    assert list(m)[:len(crowdhealth.metrics_columns)] == crowdhealth.metrics_columns
+    lines = (prog / "metrics.csv").read_text().splitlines()
+    assert lines[0].split(",") == list(m)
+    assert len(m["time"]) == len(lines) - 1
+    last = lines[-1].split(",")
+    assert float(last[0]) == m["time"][-1] and int(last[2]) == m["evacuated"][-1]
+    assert m["agents"].dtype == np.int64 and m["mean_speed"].dtype == np.float64
+
+
+def test_another_seed_gives_another_run_and_threads_do_not_matter(tmp_path):
+    a = crowdhealth.Simulation(ROOM, seed=3)
+    b = crowdhealth.Simulation(ROOM, seed=5)
+    c = crowdhealth.Simulation(ROOM, seed=3, threads=2)
+    for s in (a, b, c):
+        s.run(until=5)
+    assert not np.array_equal(a.positions(), b.positions())
+    assert np.array_equal(a.positions(), c.positions())
+
+
+def test_reading_between_steps_changes_nothing(tmp_path):
+    """field("density") measures on demand; stepping by hand equals run()."""
+    prog = run_program(ROOM, tmp_path / "prog", "--seed", "2")
+    sim = crowdhealth.Simulation(ROOM, seed=2)
+    steps = 0
+    while sim.step():
+        steps += 1
+        assert steps < 2000, "step() goes on past the end"
+        sim.field("density"), sim.field("contact_accel"), sim.field("panic"), sim.positions()
+    assert sim.finished and not sim.step()
+    assert steps == sim.steps
+    sim.write_outputs(str(tmp_path / "py"))
+    assert (tmp_path / "py" / "metrics.csv").read_bytes() == (prog / "metrics.csv").read_bytes()
+
+
+def test_scenario_error_holds_path_and_line(tmp_path):
+    bad = tmp_path / "bad.xml"
+    bad.write_text(CROSSING_XML.replace('<Agent rad="0.3">', '<Agent rad="-0.3">'))
+    with pytest.raises(crowdhealth.ScenarioError) as e:
+        crowdhealth.Simulation(bad)
+    line = CROSSING_XML.splitlines().index(next(l for l in CROSSING_XML.splitlines() if 'rad="0.3"' in l)) + 1
+    assert re.search(re.escape(str(bad)) + ":%d: error: .*rad" % line, str(e.value)), str(e.value)
+    # the same lines as the program prints
+    r = subprocess.run([PROGRAM, "--check", "-i", str(bad)], capture_output=True, text=True)
+    assert r.returncode == 2
+    first = [l for l in r.stderr.splitlines() if ": error: " in l][0]
+    assert first in str(e.value)
+    with pytest.raises(crowdhealth.ScenarioError, match="cannot|not|no "):
+        crowdhealth.Simulation(tmp_path / "missing.xml")
+
+
+def test_positions_velocities_ids_and_fields():
+    sim = crowdhealth.Simulation(ROOM, seed=1)
+    sim.run(until=3.45)  # off the metrics interval (1 s): nothing has measured the density at this step
+    assert abs(sim.time - 3.5) < 1e-9
+    n = sim.agent_count
+    assert 90 < n < 100 and n + sim.evacuated == 100  # the first have left at the exit
+    p, v, ids = sim.positions(), sim.velocities(), sim.ids()
+    assert p.shape == (n, 2) and p.dtype == np.float64
+    assert v.shape == (n, 2) and v.dtype == np.float64
+    assert ids.shape == (n,) and ids.dtype == np.int64 and len(set(ids.tolist())) == n
+    assert np.all((p[:, 0] > -1) & (p[:, 0] < 16) & (p[:, 1] > -1) & (p[:, 1] < 11))
+    for name in ["density", "contact_accel", "panic"]:
+        f = sim.field(name)
+        assert f.shape == (n,) and f.dtype == np.float64
+    rho = sim.field("density")
+    assert np.all(rho > 0)  # every agent counts itself
+    # the metrics' mean density is the mean of the same per-agent values (the final row, taken at t = 3.5 s)
+    sim.end()
+    m = sim.metrics()
+    assert m["time"][-1] == sim.time
+    assert rho.mean() == pytest.approx(m["mean_density"][-1], rel=1e-12)
+    assert np.linalg.norm(v, axis=1).mean() == pytest.approx(m["mean_speed"][-1], rel=1e-12)
+    assert np.linalg.norm(v, axis=1).max() == pytest.approx(m["max_speed"][-1], rel=1e-12)
+    with pytest.raises(ValueError, match="unknown field"):
+        sim.field("temperature")
+
+
+def test_positions_are_the_agents_places(tmp_path):
+    path = tmp_path / "crossing.xml"
+    path.write_text(CROSSING_XML)
+    sim = crowdhealth.Simulation(path)
+    assert sim.ids().tolist() == [0, 1, 2, 3]
+    assert np.array_equal(sim.positions(), [[1, 1], [1, 3], [9, 2], [9, 1.2345678901]])
+    assert np.array_equal(sim.velocities(), np.zeros((4, 2)))
+    assert np.array_equal(sim.field("radius"), [0.25, 0.25, 0.3, 0.24])
+    sim.run(until=1)
+    p, v = sim.positions(), sim.velocities()
+    assert np.all(v[:2, 0] > 0.3) and np.all(v[2:, 0] < -0.3)  # walking towards their goals
+    sim.step()  # one step of 0.1 s moves each agent by about v dt
+    assert np.allclose(sim.positions(), p + 0.1 * v, atol=0.05)
+
+
+def test_set_parameter_changes_motion(tmp_path):
+    path = tmp_path / "crossing.xml"
+    path.write_text(CROSSING_XML)
+    sims = [crowdhealth.Simulation(path) for _ in range(3)]
+    for s in sims:
+        s.run(until=1)
+    sims[1].set_parameter(0, "GoalReachingForce", "strength", 1.0)  # its value already: no change
+    sims[2].set_parameter(None, "GoalReachingForce", "strength", 4.0)
+    assert sims[2].parameter(0, "GoalReachingForce", "strength") == 4.0
+    for s in sims:
+        s.run(until=2)
+    assert np.array_equal(sims[0].positions(), sims[1].positions())
+    # a stronger drive towards the goal: faster agents
+    speed = [np.linalg.norm(s.velocities(), axis=1).mean() for s in sims]
+    assert not np.array_equal(sims[0].positions(), sims[2].positions())
+    assert speed[2] > speed[0] + 0.01
+    # the CrowdHealth layer, addressed as <Ramp component="CrowdHealth"> does
+    sims[0].set_parameter(0, "CrowdHealth", "panic", 0.5)
+    sims[0].step()
+    assert np.all(sims[0].field("panic") >= 0.5 - 1e-12)
+    with pytest.raises(ValueError, match="unknown component"):
+        sims[0].set_parameter(0, "NoSuchForce", "strength", 1)
+    with pytest.raises(ValueError, match="no parameter"):
+        sims[0].set_parameter(0, "GoalReachingForce", "strenght", 1)
+    with pytest.raises(ValueError, match="out of range"):
+        sims[0].set_parameter(0, "GoalReachingForce", "strength", -1)
+    with pytest.raises(ValueError, match="targets no component"):
+        sims[0].set_parameter(7, "GoalReachingForce", "strength", 1)
+    with pytest.raises(ValueError, match="targets no component"):
+        sims[0].set_parameter(0, "SPH", "viscosity", 1)
+
+
+def test_scenario_in_code_equals_the_xml_file(tmp_path):
+    path = tmp_path / "crossing.xml"
+    path.write_text(CROSSING_XML)
+    a = crowdhealth.Simulation(path)
+    b = crowdhealth.Simulation(crossing_in_code())
+    assert a.agent_count == b.agent_count == 4
+    a.run(), b.run()
+    assert np.array_equal(a.positions(), b.positions())
+    a.write_outputs(str(tmp_path / "a"))
+    b.write_outputs(str(tmp_path / "b"))
+    for name in ["metrics.csv", "health.csv", "evacuations.csv"]:
+        assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes(), name
+    # and the program runs the builder's file to the same metrics
+    (tmp_path / "built.xml").write_text(crossing_in_code().to_xml())
+    prog = run_program(tmp_path / "built.xml", tmp_path / "prog")
+    assert (prog / "metrics.csv").read_bytes() == (tmp_path / "b" / "metrics.csv").read_bytes()
+
+
+def test_scenario_in_code_is_checked_by_the_loader():
+    s = crossing_in_code()
+    s.agent(5, 2, goal=(1, 1), policy=3)  # no policy 3
+    with pytest.raises(crowdhealth.ScenarioError) as e:
+        crowdhealth.Simulation(s)
+    msg = str(e.value)
+    assert "policy 3 does not exist" in msg
+    assert "test_crowdhealth.py:%d:" % (sys._getframe().f_lineno - 5) in msg  # the builder call's line
+    s = crowdhealth.Scenario().policy(0, [("GoalReachingForce", {"strength": -2})]).agent(0, 0, goal=(1, 0))
+    with pytest.raises(crowdhealth.ScenarioError, match="strength"):
+        crowdhealth.Simulation(s)
+
+
+def test_verdict_and_outputs_match_summary_json(tmp_path):
+    import json
+    sim = crowdhealth.Simulation(ROOM, seed=1)
+    sim.run()
+    v = sim.verdict()
+    assert v["level"] in ("safe", "caution", "dangerous", "critical") and isinstance(v["reasons"], list)
+    sim.write_outputs(str(tmp_path / "out"))
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["verdict"] == v
+    prog = run_program(ROOM, tmp_path / "prog", "--seed", "1")
+    assert json.loads((prog / "summary.json").read_text())["verdict"] == v
+    with pytest.raises(RuntimeError, match="ended"):
+        sim.step()
+    # the program's folder rules: a folder with someone else's file is refused
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "notes.txt").write_text("mine")
+    sim2 = crowdhealth.Simulation(ROOM, seed=1)
+    sim2.run(until=1)
+    with pytest.raises(RuntimeError, match="notes.txt"):
+        sim2.write_outputs(str(other))
+
+
+def test_list_policies_names_the_registered_components():
+    listed = crowdhealth.list_policies()
+    names = [p["name"] for p in listed]
+    r = subprocess.run([PROGRAM, "--list-policies"], capture_output=True, text=True, check=True)
+    program_names = re.findall(r"^(\w+)  \[(?:force|cost function)\]$", r.stdout, re.M)
+    assert names == program_names and len(names) >= 10
+    goal = listed[names.index("GoalReachingForce")]
+    assert goal["kind"] == "force"
+    assert [q["name"] for q in goal["parameters"]] == ["coeff", "range", "strength"]
+
+
+def _python_env():
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join(p for p in [str(pathlib.Path(crowdhealth.__file__).parents[1]),
+                                                      env.get("PYTHONPATH", "")] if p)
+    env["MPLBACKEND"] = "Agg"
+    return env
+
+
+def test_the_docs_example_runs(tmp_path):
+    text = (SRC / "docs" / "python.md").read_text()
+    m = re.search(r"<!-- example: run by Engine/python/tests -->\s*```python\n(.*?)```", text, re.S)
+    assert m, "docs/python.md lost its complete example"
+    (tmp_path / "example.py").write_text(m.group(1))
+    r = subprocess.run([sys.executable, "example.py", str(SRC)], cwd=tmp_path, env=_python_env(),
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert (tmp_path / "out" / "metrics.csv").exists()
+
+
+@pytest.mark.parametrize("example", sorted(p.name for p in (SRC / "Examples" / "python").glob("*.py")))
+def test_examples_run(tmp_path, example):
+    r = subprocess.run([sys.executable, str(SRC / "Examples" / "python" / example), "--out", str(tmp_path)],
+                       cwd=tmp_path, env=_python_env(), capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stdout + r.stderr
+
+
+def test_warnings_are_scenario_warnings():
+    s = crowdhealth.Scenario()  # no end time: the program warns that the run ends when everyone has left
+    s.policy(0, ["GoalReachingForce"]).agent(0, 0, goal=(2, 0), remove_at_goal=True)
+    with pytest.warns(crowdhealth.ScenarioWarning, match="no end_time"):
+        sim = crowdhealth.Simulation(s)
+    assert "no end_time" in sim.warnings
+    sim.run()
+    assert sim.agent_count == 0 and sim.evacuated == 1 and 1 < sim.time < 3
