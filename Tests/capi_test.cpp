@@ -215,12 +215,13 @@ BOOST_AUTO_TEST_CASE(set_parameter_refuses_what_a_ramp_refuses) {
     check(0, "SocialForcesAvoidance", "V_0", 1, CH_ERROR_UNKNOWN_NAME,
           "SocialForcesAvoidance has no parameter 'V_0' (did you mean 'V0'?)");
     check(7, "SocialForcesAvoidance", "V0", 1, CH_ERROR_UNKNOWN_NAME, "the scenario has no policy 7");
-    check(0, "Karamouzas", "range", 1, CH_ERROR_UNKNOWN_NAME, "policy 0 of the scenario has the component Karamouzas");
-    check(CH_ALL_POLICIES, "Karamouzas", "range", 1, CH_ERROR_UNKNOWN_NAME, "no policy of the scenario has the component");
+    check(0, "Karamouzas", "alpha", 1, CH_ERROR_UNKNOWN_NAME, "policy 0 of the scenario has the component Karamouzas");
+    check(CH_ALL_POLICIES, "Karamouzas", "alpha", 1, CH_ERROR_UNKNOWN_NAME, "no policy of the scenario has the component");
     check(0, "SocialForcesAvoidance", "V0", -1, CH_ERROR_INVALID_VALUE, "V0 -1 is out of range (allowed: [0, 10000]");
     check(0, "SocialForcesAvoidance", "V0", 10001, CH_ERROR_INVALID_VALUE, "out of range");
     check(0, "SocialForcesAvoidance", "V0", std::nan(""), CH_ERROR_INVALID_VALUE, "out of range");
-    check(0, "SocialForcesAvoidance", "coeff", 2, CH_ERROR_INVALID_VALUE, "coeff cannot change while running");
+    check(0, "SocialForcesAvoidance", "coeff", 2, CH_ERROR_INVALID_VALUE, "SocialForcesAvoidance.coeff is fixed for the run");
+    check(0, "SocialForcesAvoidance", "range", 2, CH_ERROR_INVALID_VALUE, "SocialForcesAvoidance.range is fixed for the run");
     // Nothing was changed by the failures.
     double v0 = 0;
     BOOST_REQUIRE_EQUAL(ch_simulation_get_parameter(s, 0, "SocialForcesAvoidance", "V0", &v0), CH_OK);

@@ -58,7 +58,10 @@ BOOST_AUTO_TEST_CASE(ramp_and_crowdhealth_errors_carry_file_and_line) {
     CHECK_AT(L, f, 23, "error: Ramp@to: 30 is out of range for agents.pref_speed (allowed: [0, 20] m/s)");
     CHECK_AT(L, f, 24, "error: Ramp@parameter: SPH.walls is not a real number");
     CHECK_AT(L, f, 25, "error: PanicEvent@radius: 0 is not in (0, inf) m");
-    BOOST_TEST(L.diags.errorCount() == 11);
+    // Read when the run starts: a ramp would silently do nothing (coeff) or too little (range).
+    CHECK_AT(L, f, 26, "error: Ramp@parameter: SPH.coeff is fixed for the run");
+    CHECK_AT(L, f, 27, "error: Ramp@parameter: SPH.range is fixed for the run");
+    BOOST_TEST(L.diags.errorCount() == 13);
 }
 
 BOOST_AUTO_TEST_CASE(crowdhealth_placement_errors) {

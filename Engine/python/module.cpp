@@ -237,8 +237,8 @@ public:
             throw py::value_error(component + " has no parameter '" + parameter + "'; its parameters: " + names);
         if (spec->type != ch::ParamType::Real)
             throw py::value_error(component + "." + parameter + " is not a real number (only real parameters can be set, as with <Ramp>)");
-        if (component == "CrowdHealth" && parameter == "fallenRadius")
-            throw py::value_error("CrowdHealth.fallenRadius cannot be changed (the neighbour range is set from it when the run starts)");
+        if (const std::string fixed = ch::fixedForTheRun(component, parameter); !fixed.empty())
+            throw py::value_error(fixed);
         if (!inRange(*spec, value))
             throw py::value_error(ch::formatNumber(value) + " is out of range for " + component + "." + parameter +
                                   " (allowed: " + spec->rangeText() + ")");

@@ -113,10 +113,8 @@ ch_status resolve(const ch_simulation* h, int policyId, const char* component, c
     if (out.spec->type != ch::ParamType::Real)
         return fail(CH_ERROR_INVALID_VALUE, std::string(what) + ": " + comp + "." + param +
                                                 " is not a real number (only real parameters can change while running)");
-    // The weight `coeff` is held by the policy step, not by the component, and fallenRadius sizes
-    // the neighbour range when the run starts: neither can change while running.
-    if (param == "coeff" || (health && param == "fallenRadius"))
-        return fail(CH_ERROR_INVALID_VALUE, std::string(what) + ": " + comp + "." + param + " cannot change while running");
+    if (const std::string fixed = ch::fixedForTheRun(comp, param); !fixed.empty())
+        return fail(CH_ERROR_INVALID_VALUE, std::string(what) + ": " + fixed);
 
     const std::vector<ch::Policy>& policies = h->sim->policies();
     bool policyFound = policyId == CH_ALL_POLICIES;

@@ -70,4 +70,16 @@ std::unique_ptr<Component> createComponent(const std::string& name, const ParamS
     return info->create(full);
 }
 
+std::string fixedForTheRun(const std::string& component, const std::string& parameter) {
+    if (component == "CrowdHealth")
+        return parameter == "fallenRadius"
+                   ? "CrowdHealth.fallenRadius is fixed for the run (the neighbour range is set from it when the run starts)"
+                   : std::string();
+    if (parameter == "coeff")
+        return component + ".coeff is fixed for the run (the policy step reads a component's weight when the run starts)";
+    if (parameter == "range")
+        return component + ".range is fixed for the run (the neighbour lists are sized from it when the run starts)";
+    return {};
+}
+
 }  // namespace ch

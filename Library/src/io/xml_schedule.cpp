@@ -137,9 +137,8 @@ void readRamp(LoadContext& ctx, const std::string& file, const XMLElement* el) {
                                         " is not a real number (only real parameters can be ramped)");
         return;
     }
-    if (owner == "CrowdHealth" && *parameter == "fallenRadius") {
-        r.error(r.loc("parameter"), "Ramp@parameter: CrowdHealth.fallenRadius cannot be ramped (the neighbour range is "
-                                    "set from it when the run starts)");
+    if (const std::string fixed = fixedForTheRun(owner, *parameter); !fixed.empty()) {
+        r.error(r.loc("parameter"), "Ramp@parameter: " + fixed + " and cannot be ramped");
         return;
     }
     for (const char* attr : {"from", "to"}) {
@@ -242,8 +241,7 @@ std::string rampTargetProblem(const ScenarioSpec& spec, const RampSpec& ramp) {
         return msg + "; its parameters: " + joined(names);
     }
     if (p->type != ParamType::Real) return owner + "." + ramp.parameter + " is not a real number (only real parameters can be ramped)";
-    if (owner == "CrowdHealth" && ramp.parameter == "fallenRadius")
-        return "CrowdHealth.fallenRadius cannot be ramped (the neighbour range is set from it when the run starts)";
+    if (const std::string fixed = fixedForTheRun(owner, ramp.parameter); !fixed.empty()) return fixed + " and cannot be ramped";
     for (const double v : {ramp.from, ramp.to})
         if (!inRange(*p, v))
             return formatNumber(v) + " is out of range for " + owner + "." + ramp.parameter + " (allowed: " + p->rangeText() + ")";

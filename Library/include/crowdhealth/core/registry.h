@@ -60,6 +60,12 @@ private:
 /// Builds a component from its spec values (throws RegistryError for an unknown name).
 std::unique_ptr<Component> createComponent(const std::string& name, const ParamSet& params);
 
+/// Why `component`.`parameter` cannot change during a run (a <Ramp>, a sweep's --vary,
+/// set_parameter from Python or C), or "" when it can. Fixed for the run: `coeff` (the weight is
+/// held by the policy step, which reads it when the run starts), `range` (it sizes the neighbour
+/// lists when the run starts) and CrowdHealth's `fallenRadius` (likewise).
+std::string fixedForTheRun(const std::string& component, const std::string& parameter);
+
 }  // namespace ch
 
 #define CH_CONCAT_INNER(a, b) a##b
