@@ -63,12 +63,6 @@ std::vector<std::string> split(const std::string& s, char sep) {
     return out;
 }
 
-bool inRange(const ch::ParamSpec& p, double v) {
-    const bool lo = p.minExclusive ? v > p.min : v >= p.min;
-    const bool hi = p.maxExclusive ? v < p.max : v <= p.max;
-    return lo && hi;
-}
-
 py::object jsonLoads(const std::string& text) { return py::module_::import("json").attr("loads")(text); }
 
 class PySimulation {
@@ -239,7 +233,7 @@ public:
             throw py::value_error(component + "." + parameter + " is not a real number (only real parameters can be set, as with <Ramp>)");
         if (const std::string fixed = ch::fixedForTheRun(component, parameter); !fixed.empty())
             throw py::value_error(fixed);
-        if (!inRange(*spec, value))
+        if (!spec->contains(value))
             throw py::value_error(ch::formatNumber(value) + " is out of range for " + component + "." + parameter +
                                   " (allowed: " + spec->rangeText() + ")");
         int hits = 0;

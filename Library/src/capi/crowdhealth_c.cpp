@@ -55,12 +55,6 @@ ch_status guarded(const char* what, F&& f) noexcept {
     }
 }
 
-bool inRange(const ch::ParamSpec& p, double v) {
-    const bool lo = p.minExclusive ? v > p.min : v >= p.min;
-    const bool hi = p.maxExclusive ? v < p.max : v <= p.max;
-    return lo && hi;
-}
-
 std::string joined(const std::vector<std::string>& words) {
     std::string out;
     for (std::size_t i = 0; i < words.size(); ++i) out += (i ? ", " : "") + words[i];
@@ -298,7 +292,7 @@ ch_status ch_simulation_set_parameter(ch_simulation* sim, int policy_id, const c
         Target t;
         if (const ch_status s = resolve(sim, policy_id, component, parameter, t, "ch_simulation_set_parameter"); s != CH_OK)
             return s;
-        if (!std::isfinite(value) || !inRange(*t.spec, value))
+        if (!std::isfinite(value) || !t.spec->contains(value))
             return fail(CH_ERROR_INVALID_VALUE, "ch_simulation_set_parameter: " + std::string(component) + "." + parameter +
                                                     " " + ch::formatNumber(value) + " is out of range (allowed: " +
                                                     t.spec->rangeText() + ")");

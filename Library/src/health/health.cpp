@@ -445,10 +445,12 @@ void HealthLayer::care(AgentStore& agents, const PointGrid& grid, double time, d
     for (const HealthParams& hp : params_)
         if (hp.helping) farthest = std::max(farthest, hp.helpRadius);
     for (std::size_t i = 0; i < n; ++i) {
-        const HealthRecord& r = record(agents, i);
+        HealthRecord& r = record(agents, i);
         if (r.injured() || r.fallen) {
             casualties.push_back(i);
             anyGroup = anyGroup || agents.group[i] >= 0;
+            r.helping = -1;  // a helper who was hurt itself stops helping
+            r.helpPhase = 0;
         } else if (r.helping >= 0) {
             helpers.push_back(i);
         }
@@ -457,14 +459,6 @@ void HealthLayer::care(AgentStore& agents, const PointGrid& grid, double time, d
               [&](std::size_t a, std::size_t b) { return agents.id[a] < agents.id[b]; });
     std::unordered_map<AgentId, std::size_t> casualtyAt;
     for (std::size_t c : casualties) casualtyAt.emplace(agents.id[c], c);
-    // A helper that was hurt itself stops helping.
-    for (std::size_t i = 0; i < n; ++i) {
-        HealthRecord& r = record(agents, i);
-        if (r.helping >= 0 && (r.injured() || r.fallen)) {
-            r.helping = -1;
-            r.helpPhase = 0;
-        }
-    }
     // 3. New helpers. Each (helper, casualty) pair has a draw of its own.
     if (farthest > 0 || anyGroup) {
         std::unordered_map<int, std::vector<std::size_t>> members;

@@ -21,12 +21,6 @@ std::string joined(const std::vector<std::string>& words) {
     return out;
 }
 
-bool inRange(const ParamSpec& p, double v) {
-    const bool lo = p.minExclusive ? v > p.min : v >= p.min;
-    const bool hi = p.maxExclusive ? v < p.max : v <= p.max;
-    return lo && hi;
-}
-
 /// The agent attributes a ramp may move (same ranges as <Agent>).
 const ParamTable& agentRampTable() {
     static const ParamTable t = {
@@ -143,7 +137,7 @@ void readRamp(LoadContext& ctx, const std::string& file, const XMLElement* el) {
     }
     for (const char* attr : {"from", "to"}) {
         const std::optional<double> v = std::string(attr) == "from" ? from : to;
-        if (v && !inRange(*spec, *v))
+        if (v && !spec->contains(*v))
             r.error(r.loc(attr), std::string("Ramp@") + attr + ": " + *r.text(attr) + " is out of range for " + owner +
                                      "." + *parameter + " (allowed: " + spec->rangeText() + ")");
     }
@@ -243,7 +237,7 @@ std::string rampTargetProblem(const ScenarioSpec& spec, const RampSpec& ramp) {
     if (p->type != ParamType::Real) return owner + "." + ramp.parameter + " is not a real number (only real parameters can be ramped)";
     if (const std::string fixed = fixedForTheRun(owner, ramp.parameter); !fixed.empty()) return fixed + " and cannot be ramped";
     for (const double v : {ramp.from, ramp.to})
-        if (!inRange(*p, v))
+        if (!p->contains(v))
             return formatNumber(v) + " is out of range for " + owner + "." + ramp.parameter + " (allowed: " + p->rangeText() + ")";
     if (ramp.target == RampSpec::Target::Agents) return {};
     bool policyFound = false, found = false;

@@ -35,6 +35,12 @@ struct ParamSpec {
 
     /// "[0, 10] m" or "one of: a, b" — used in error messages and docs.
     std::string rangeText() const;
+    /// True when v lies in [min, max], each end open where the spec says so (NaN: false).
+    bool contains(double v) const {
+        const bool lo = minExclusive ? v > min : v >= min;
+        const bool hi = maxExclusive ? v < max : v <= max;
+        return lo && hi;
+    }
     /// The default written as it would appear in XML.
     std::string defaultText() const;
     /// Parses an XML attribute value; on failure returns false and sets `why`.
