@@ -68,6 +68,9 @@ po::options_description visibleOptions() {
          "kept, files named as this run's outputs are replaced (without it such a folder is refused)")
         ("quiet,q", "no progress bar and no closing summary")
         ("check", "validate the scenario (load and build it), print a one-line summary, write nothing")
+        ("plugin", po::value<std::vector<std::string>>()->composing()->value_name("FILE"),
+         "load a plugin (a shared library of cost functions and forces, docs/adding-a-policy.md) "
+         "before the scenario; repeat for more (a scenario can also name them: <Plugin file=\"...\"/>)")
         ("list-policies", "list every registered cost function and force with its parameters")
         ("format", po::value<std::string>()->value_name("text|markdown"),
          "output format of --list-policies (default: text)")
@@ -101,7 +104,7 @@ void printHelp(std::ostream& out) {
            "       crowdhealth sweep -i SCENARIO -o OUTDIR --vary TARGET=VALUES [--vary ...] [--replications N]\n"
            "                         (parameter studies; see 'crowdhealth sweep --help')\n"
            "       crowdhealth verify [-o DIR] [--quick] [--policy NAME...] [--test ID...] [--jobs N]\n"
-           "       crowdhealth --list-policies [--format text|markdown]\n\n"
+           "       crowdhealth --list-policies [--plugin FILE] [--format text|markdown]\n\n"
            "Runs a CrowdHealth (UMANS-compatible) crowd scenario and writes metrics.csv,\n"
            "evacuations.csv, summary.json and optionally trajectories to OUTDIR.\n"
            "With --replications N, runs the seeds S ... S+N-1 (S: --seed, else the scenario's),\n"
@@ -164,6 +167,11 @@ std::optional<Options> parseCommandLine(int argc, const char* const argv[], std:
         else if (f == "markdown" || f == "md") o.format = ListFormat::Markdown;
         else { usageError(err, "--format must be 'text' or 'markdown', not '" + f + "'"); return std::nullopt; }
         if (!vm.count("list-policies")) { usageError(err, "--format only applies to --list-policies"); return std::nullopt; }
+    }
+    if (vm.count("plugin")) {
+        o.plugins = vm["plugin"].as<std::vector<std::string>>();
+        for (const std::string& p : o.plugins)
+            if (p.empty()) { usageError(err, "--plugin needs a file name"); return std::nullopt; }
     }
     if (vm.count("list-policies")) {
         if (vm.count("check") || vm.count("input")) {

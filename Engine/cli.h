@@ -5,6 +5,7 @@
 #include <iosfwd>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace chcli {
 
@@ -38,6 +39,8 @@ struct Options {
     bool overwrite = false;
     bool quiet = false;
     ListFormat format = ListFormat::Text;
+    /// --plugin FILE (repeatable): plugins loaded before anything else (crowdhealth/plugin.h).
+    std::vector<std::string> plugins;
     /// Hidden, for tests: raise SIGINT after this many coarse steps (exercises the real
     /// Ctrl-C path deterministically, without timing).
     std::optional<std::uint64_t> interruptAfterSteps;

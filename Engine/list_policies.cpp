@@ -43,6 +43,7 @@ void printText(std::ostream& out, const std::vector<const ch::ComponentInfo*>& a
         out << "\n" << info->name << "  [" << kindName(info->kind) << "]\n";
         if (!info->summary.empty()) out << "  " << info->summary << "\n";
         if (!info->reference.empty()) out << "  Reference: " << info->reference << "\n";
+        if (!info->origin.empty()) out << "  From the plugin " << info->origin << "\n";
         const std::vector<Row> rows = parameterRows(*info);
         // Column widths over header and rows; the description is last and not padded.
         std::array<std::size_t, 4> width{};
@@ -70,6 +71,7 @@ void printMarkdown(std::ostream& out, const std::vector<const ch::ComponentInfo*
         out << "*Kind:* " << kindName(info->kind) << "\n";
         if (!info->summary.empty()) out << "\n" << info->summary << "\n";
         if (!info->reference.empty()) out << "\n*Reference:* " << info->reference << "\n";
+        if (!info->origin.empty()) out << "\n*From the plugin* `" << cell(info->origin) << "`\n";
         out << "\n| Parameter | Unit | Default | Range | Description |\n";
         out << "|---|---|---|---|---|\n";
         for (const Row& r : parameterRows(*info))

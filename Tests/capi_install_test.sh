@@ -2,7 +2,10 @@
 # The C API from an installed tree (docs/c-api.md): `cmake --install` into a temporary prefix,
 # Examples/c-api/example.c compiled with gcc -std=c99 against it through pkg-config and through
 # find_package(CrowdHealth), run on a small scenario; checks its output (agents move, time
-# advances, a parameter changes, a misspelt parameter and a bad file give their errors).
+# advances, a parameter changes, a misspelt parameter and a bad file give their errors). Then the
+# example plugin (Examples/plugin) built on its own against the installed tree, loaded by the
+# installed program (--plugin, <Plugin>) and by a C program (ch_load_plugin): a model added
+# without rebuilding CrowdHealth (docs/adding-a-policy.md).
 #
 #   capi_install_test.sh BUILD_DIR SOURCE_DIR [EXTRA_CFLAGS]
 # EXTRA_CFLAGS: -fsanitize=… under the sanitizer build (the library is instrumented, so the
@@ -102,4 +105,61 @@ if [ -f "$doc" ]; then
     grep -Fxq -- "$l" "$src/Examples/c-api/example.c" || fail "docs/c-api.md quotes a line that is not in Examples/c-api/example.c: $l"
   done <<<"$quoted"
 fi
+
+# 4. A plugin built against the installed tree alone (CrowdHealth::plugin), run by the installed
+# program and through the C API: its force changes the walk.
+cmake -S "$src/Examples/plugin" -B "$tmp/plugin" -DCMAKE_PREFIX_PATH="$prefix" -DCMAKE_BUILD_TYPE=Release \
+      -DCMAKE_CXX_FLAGS="$extra" >"$tmp/plugin.log" 2>&1 || { cat "$tmp/plugin.log"; fail "configuring Examples/plugin against the installed tree"; }
+cmake --build "$tmp/plugin" >>"$tmp/plugin.log" 2>&1 || { cat "$tmp/plugin.log"; fail "building Examples/plugin against the installed tree"; }
+plugin="$tmp/plugin/plugins/libdistancing.so"
+[ -f "$plugin" ] || fail "no $plugin"
+# It links nothing of CrowdHealth's: the program that loads it provides the library.
+! readelf -d "$plugin" | grep -q "libcrowdhealth" || fail "the plugin links libcrowdhealth"
+"$prefix/bin/crowdhealth" --plugin "$plugin" --list-policies >"$tmp/list.txt" || fail "--plugin --list-policies"
+grep -q "^DistancingForce  \[force\]" "$tmp/list.txt" || fail "the installed program does not list the plugin's force"
+walkers() {  # $1: extra cost function line
+  cat <<XML
+<Simulation delta_time="0.1" end_time="10">
+	<Plugin file="$plugin" />
+	<World type="Infinite" />
+	<Policies><Policy id="0" OptimizationMethod="gradient" RelaxationTime="0.5">
+		<costfunction name="GoalReachingForce" />$1
+	</Policy></Policies>
+	<Agents>
+		<Agent id="0" rad="0.25" pref_speed="1.2"><pos x="0" y="0.5"/><goal x="100" y="0.5"/><Policy id="0"/></Agent>
+		<Agent id="1" rad="0.25" pref_speed="1.2"><pos x="0" y="-0.5"/><goal x="100" y="-0.5"/><Policy id="0"/></Agent>
+	</Agents>
+</Simulation>
+XML
+}
+walkers '<costfunction name="DistancingForce" distance="1.5" />' >"$tmp/distancing.xml"
+"$prefix/bin/crowdhealth" -i "$tmp/distancing.xml" -o "$tmp/distancing-out" -q || fail "the installed program with <Plugin>"
+cat >"$tmp/plugin.c" <<'C'
+#include <crowdhealth/crowdhealth_c.h>
+#include <math.h>
+#include <stdio.h>
+int main(int argc, char** argv) {
+    if (ch_load_plugin(argv[1]) != CH_OK) { printf("load_plugin failed: %s\n", ch_last_error()); return 1; }
+    if (ch_load_plugin("/nonexistent/libnothing.so") == CH_OK) return 1;
+    printf("refused: %s\n", ch_last_error());
+    ch_simulation* sim = ch_simulation_load(argv[2], NULL);
+    if (!sim) { printf("load failed: %s\n", ch_last_error()); return 1; }
+    while (ch_simulation_time(sim) < 9.95) if (ch_simulation_step(sim) != CH_OK) return 1;
+    double xy[4];
+    size_t n = 0;
+    if (ch_simulation_positions(sim, xy, 2, &n) != CH_OK || n != 2) return 1;
+    printf("separation %.3f\n", hypot(xy[0] - xy[2], xy[1] - xy[3]));
+    ch_simulation_free(sim);
+    return 0;
+}
+C
+# The scenario without <Plugin>: the C program loads the plugin itself.
+walkers '<costfunction name="DistancingForce" distance="1.5" />' | grep -v "<Plugin" >"$tmp/noplugin.xml"
+# shellcheck disable=SC2046,SC2086
+gcc -std=c99 -Wall -Werror $extra "$tmp/plugin.c" $(PKG_CONFIG_PATH="$(dirname "$pc")" pkg-config --cflags --libs crowdhealth) -lm -o "$tmp/plugin-c"
+LD_LIBRARY_PATH="$libdir" "$tmp/plugin-c" "$plugin" "$tmp/noplugin.xml" >"$tmp/plugin-c.txt" 2>&1 || { cat "$tmp/plugin-c.txt"; fail "ch_load_plugin"; }
+cat "$tmp/plugin-c.txt"
+grep -q "^refused: /nonexistent/libnothing.so: no such file" "$tmp/plugin-c.txt" || fail "ch_load_plugin's error"
+sep=$(sed -n 's/^separation //p' "$tmp/plugin-c.txt")
+awk -v s="$sep" 'BEGIN { exit !(s > 1.49 && s < 1.6) }' || fail "separation $sep m with DistancingForce (1 m without, 1.5 m expected)"
 echo "capi_install_test: OK"

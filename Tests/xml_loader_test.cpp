@@ -430,7 +430,8 @@ BOOST_AUTO_TEST_CASE(every_error_is_reported_with_file_and_line) {
             "(did you mean 'gradient'?)"},
         {21, "error: Agent@remove_at_goal: 'yes' is not a boolean (true, false, 1 or 0)"},
         // Unknown cost function, listing the registered names.
-        {7, "error: unknown cost function 'NoSuchCost'; registered: " + registeredNames()},
+        {7, "error: unknown cost function 'NoSuchCost'; registered: " + registeredNames() +
+                " (a component from a plugin needs <Plugin file=\"…\"/> or --plugin FILE)"},
         // Out of range, with range and unit.
         {3, "error: World@width: 0 is not in (0, inf) m"},
         {11, "error: TestOnlyCost@strength: 1000 is not in [0, 100] N"},

@@ -5,6 +5,7 @@
 #include "../scenario_run.h"
 #include "../output_folder.h"
 
+#include <crowdhealth/core/plugins.h>
 #include <crowdhealth/core/registry.h>
 #include <crowdhealth/health/health.h>
 #include <crowdhealth/io/output.h>
@@ -385,6 +386,13 @@ private:
     bool written_ = false;
 };
 
+/// crowdhealth.load_plugin(path): the names of the components it added ([] when loaded before).
+py::list loadPlugin(const std::string& path) {
+    const ch::PluginLoad load = ch::loadPlugin(ch::findPlugin(path, ""));
+    if (!load.ok) throw ScenarioError(path + ": " + load.error);
+    return py::cast(load.components);
+}
+
 py::list listPolicies() {
     py::list out;
     for (const ch::ComponentInfo* info : ch::Registry::instance().all()) {
@@ -394,6 +402,7 @@ py::list listPolicies() {
         d["summary"] = info->summary;
         d["reference"] = info->reference;
         d["models_contact"] = info->modelsContact;
+        d["plugin"] = info->origin;  // "" for a built-in component
         py::list params;
         for (const ch::ParamSpec& p : ch::Registry::fullTable(*info)) {
             py::dict q;
@@ -450,6 +459,9 @@ PYBIND11_MODULE(_crowdhealth, m) {
         .def_property_readonly("ended", &PySimulation::ended)
         .def("write_outputs", &PySimulation::writeOutputs, py::arg("dir"), py::arg("overwrite") = false);
 
+    m.def("load_plugin", &loadPlugin, py::arg("path"),
+          "loads a plugin (shared library of cost functions and forces, docs/adding-a-policy.md); "
+          "returns the names it added; raises ScenarioError when it cannot be loaded");
     m.def("list_policies", &listPolicies, "every registered cost function and force with its parameters");
     m.attr("metrics_columns") = py::cast(split(ch::kMetricsHeader, ','));
 }

@@ -16,10 +16,10 @@ import re
 import tempfile
 from xml.sax.saxutils import quoteattr
 
-from ._crowdhealth import ScenarioError, ScenarioWarning, list_policies, metrics_columns
+from ._crowdhealth import ScenarioError, ScenarioWarning, list_policies, load_plugin, metrics_columns
 from ._crowdhealth import Simulation as _Simulation
 
-__all__ = ["Simulation", "Scenario", "ScenarioError", "ScenarioWarning", "list_policies", "metrics_columns"]
+__all__ = ["Simulation", "Scenario", "ScenarioError", "ScenarioWarning", "list_policies", "load_plugin", "metrics_columns"]
 
 
 def _number(v):

@@ -301,3 +301,29 @@ def test_warnings_are_scenario_warnings():
     assert "no end_time" in sim.warnings
     sim.run()
     assert sim.agent_count == 0 and sim.evacuated == 1 and 1 < sim.time < 3
+
+
+def test_a_plugin_force_loads_and_runs(tmp_path):
+    """Examples/plugin's DistancingForce through crowdhealth.load_plugin: listed, and two walkers
+    1 m apart are pushed to its distance (1.5 m); a missing file raises ScenarioError."""
+    plugin = os.environ.get("CROWDHEALTH_EXAMPLE_PLUGIN", str(SRC / "build" / "plugins" / "libdistancing.so"))
+    assert crowdhealth.load_plugin(plugin) in (["DistancingForce"], [])  # [] when loaded before
+    assert crowdhealth.load_plugin(plugin) == []
+    entry = [c for c in crowdhealth.list_policies() if c["name"] == "DistancingForce"]
+    assert len(entry) == 1 and entry[0]["plugin"] == os.path.realpath(plugin)
+    assert [p["name"] for p in entry[0]["parameters"]] == ["coeff", "range", "distance", "strength"]
+    agents = "".join(
+        f'<Agent id="{k}" rad="0.25" pref_speed="1.2"><pos x="0" y="{y}"/><goal x="100" y="{y}"/><Policy id="0"/></Agent>'
+        for k, y in enumerate((0.5, -0.5)))
+    scenario = tmp_path / "walkers.xml"
+    scenario.write_text(
+        '<Simulation delta_time="0.1" end_time="10"><World type="Infinite"/>'
+        '<Policies><Policy id="0" OptimizationMethod="gradient" RelaxationTime="0.5">'
+        '<costfunction name="GoalReachingForce"/><costfunction name="DistancingForce" distance="1.5"/>'
+        f'</Policy></Policies><Agents>{agents}</Agents></Simulation>')
+    sim = crowdhealth.Simulation(str(scenario))
+    sim.run()
+    p = sim.positions()
+    assert 1.49 < np.hypot(*(p[0] - p[1])) < 1.6
+    with pytest.raises(crowdhealth.ScenarioError, match="no such file"):
+        crowdhealth.load_plugin(str(tmp_path / "nothing.so"))

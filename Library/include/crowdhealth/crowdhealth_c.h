@@ -56,6 +56,12 @@ CH_C_API const char* ch_version(void);
  *  line, in the `path:line: error: message` form of the program. Never NULL. */
 CH_C_API const char* ch_last_error(void);
 
+/** Loads a plugin (a shared library of cost functions and forces, crowdhealth/plugin.h) so that
+ *  scenarios loaded afterwards can use its components, as `crowdhealth --plugin FILE` does (a
+ *  scenario can also name it: <Plugin file="…"/>). A file loaded before is not loaded again.
+ *  Returns CH_OK, or CH_ERROR_RUNTIME with the file and the reason in ch_last_error(). */
+CH_C_API ch_status ch_load_plugin(const char* path);
+
 /** Loads the scenario file at `path` exactly as the `crowdhealth` program does (every file it
  *  names, relative to the file naming it) and builds its simulation at time 0.
  *  `seed`: NULL keeps the scenario's Simulation@seed; otherwise overrides it (as --seed).

@@ -3,6 +3,8 @@
 // into C.
 #include "crowdhealth/crowdhealth_c.h"
 
+#include "crowdhealth/core/plugins.h"
+
 #include "crowdhealth/core/registry.h"
 #include "crowdhealth/core/simulation.h"
 #include "crowdhealth/health/health.h"
@@ -154,6 +156,15 @@ extern "C" {
 const char* ch_version(void) { return CH_VERSION; }
 
 const char* ch_last_error(void) { return t_lastError.c_str(); }
+
+ch_status ch_load_plugin(const char* path) {
+    if (path == nullptr) return fail(CH_ERROR_NULL_ARGUMENT, "ch_load_plugin: the path is NULL");
+    return guarded("ch_load_plugin", [&]() -> ch_status {
+        const ch::PluginLoad load = ch::loadPlugin(ch::findPlugin(path, ""));
+        if (!load.ok) return fail(CH_ERROR_RUNTIME, std::string(path) + ": " + load.error);
+        return CH_OK;
+    });
+}
 
 ch_simulation* ch_simulation_load(const char* path, const uint64_t* seed) {
     if (path == nullptr) {

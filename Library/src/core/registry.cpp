@@ -2,6 +2,7 @@
 #include "crowdhealth/core/registry.h"
 
 #include <algorithm>
+#include <mutex>
 
 namespace ch {
 
@@ -11,26 +12,43 @@ Registry& Registry::instance() {
     return registry;
 }
 
-bool Registry::add(ComponentInfo info) {
-    if (info.name.empty()) throw RegistryError("cannot register a component without a name");
-    if (!info.create) throw RegistryError("component '" + info.name + "' has no factory");
-    if (find(info.name) != nullptr)
-        throw RegistryError("component '" + info.name + "' is registered twice");
+std::string Registry::problem(const ComponentInfo& info) const {
+    if (info.name.empty()) return "cannot register a component without a name";
+    if (!info.create) return "component '" + info.name + "' has no factory";
+    {
+        const std::shared_lock<std::shared_mutex> lock(mutex_);
+        if (const ComponentInfo* taken = findLocked(info.name))
+            return "component '" + info.name + "' is registered twice" +
+                   (taken->origin.empty() ? std::string(" (the name is a built-in component's)")
+                                          : " (the name is taken by the plugin " + taken->origin + ")");
+    }
     for (const ParamSpec& p : info.params)
         for (const ParamSpec& c : commonParams())
-            if (p.name == c.name)
-                throw RegistryError("component '" + info.name + "' redeclares the common parameter '" + p.name + "'");
+            if (p.name == c.name) return "component '" + info.name + "' redeclares the common parameter '" + p.name + "'";
+    return "";
+}
+
+bool Registry::add(ComponentInfo info) {
+    if (const std::string why = problem(info); !why.empty()) throw RegistryError(why);
+    const std::unique_lock<std::shared_mutex> lock(mutex_);
+    if (findLocked(info.name) != nullptr) throw RegistryError("component '" + info.name + "' is registered twice");
     entries_.push_back(std::move(info));
     return true;
 }
 
-const ComponentInfo* Registry::find(const std::string& name) const {
+const ComponentInfo* Registry::findLocked(const std::string& name) const {
     for (const ComponentInfo& e : entries_)
         if (e.name == name) return &e;
     return nullptr;
 }
 
+const ComponentInfo* Registry::find(const std::string& name) const {
+    const std::shared_lock<std::shared_mutex> lock(mutex_);
+    return findLocked(name);
+}
+
 std::vector<std::string> Registry::names() const {
+    const std::shared_lock<std::shared_mutex> lock(mutex_);
     std::vector<std::string> out;
     for (const ComponentInfo& e : entries_) out.push_back(e.name);
     std::sort(out.begin(), out.end());
@@ -38,6 +56,7 @@ std::vector<std::string> Registry::names() const {
 }
 
 std::vector<const ComponentInfo*> Registry::all() const {
+    const std::shared_lock<std::shared_mutex> lock(mutex_);
     std::vector<const ComponentInfo*> out;
     for (const ComponentInfo& e : entries_) out.push_back(&e);
     std::sort(out.begin(), out.end(), [](auto* a, auto* b) { return a->name < b->name; });

@@ -2,6 +2,8 @@
 // that need the whole scenario (agent ids, policy references). See xml_internal.h for the layout.
 #include "crowdhealth/io/xml.h"
 
+#include "crowdhealth/core/plugins.h"
+
 #include "xml_internal.h"
 
 #include "crowdhealth/io/output.h"
@@ -269,7 +271,7 @@ const char* blockName(Block b) {
 
 std::vector<std::string> blockChildren(Block b) {
     switch (b) {
-        case Block::Policies: return {"Policy"};
+        case Block::Policies: return {"Policy", "Plugin"};
         case Block::Agents: return {"Agent", "AgentGrid", "SpawnRectangle", "Source"};
         case Block::Obstacles: return {"Obstacle", "Box"};
     }
@@ -417,6 +419,34 @@ const ParamTable& obstaclesTable() {
     return t;
 }
 
+/// `<Plugin file="…"/>`: loads the plugin (relative to the file that names it) before the
+/// policies that use its components are read. Every <Plugin> child of `el` is loaded here, first,
+/// wherever it stands among its siblings.
+void readPlugins(LoadContext& ctx, const std::string& file, const XMLElement* el) {
+    namespace fs = std::filesystem;
+    static const ParamTable none;
+    for (const XMLElement* c = el->FirstChildElement(); c != nullptr; c = c->NextSiblingElement()) {
+        if (!is(c, "Plugin")) continue;
+        ElementReader r(ctx, file, c, "Plugin", none, {"file"});
+        if (c->FirstChildElement() != nullptr)
+            r.error(locOf(file, c->FirstChildElement()), "<Plugin> has no child elements; give only file=\"…\"");
+        const std::optional<std::string> name = r.text("file");
+        if (!name || name->empty()) {
+            r.error(r.loc(), "<Plugin> needs file=\"…\": the plugin's shared library (.so), relative to this file");
+            ctx.pluginFailed = true;
+            continue;
+        }
+        const PluginLoad load = loadPlugin(findPlugin(*name, fs::path(file).parent_path().string()));
+        if (!load.ok) {
+            r.error(r.loc("file"), "Plugin@file: '" + *name + "' " + load.error);
+            ctx.pluginFailed = true;
+            continue;
+        }
+        if (std::find(ctx.spec.plugins.begin(), ctx.spec.plugins.end(), load.path) == ctx.spec.plugins.end())
+            ctx.spec.plugins.push_back(load.path);
+    }
+}
+
 void readBlock(LoadContext& ctx, const std::string& file, const XMLElement* el, Block kind, bool external) {
     static const ParamTable none;
     // A file named by file= cannot name another one: no chains, no cycles.
@@ -452,10 +482,12 @@ void readBlock(LoadContext& ctx, const std::string& file, const XMLElement* el, 
         return;
     }
     const std::vector<std::string> allowed = blockChildren(kind);
+    if (kind == Block::Policies) readPlugins(ctx, file, el);
     for (const XMLElement* c = el->FirstChildElement(); c != nullptr; c = c->NextSiblingElement()) {
         switch (kind) {
             case Block::Policies:
                 if (is(c, "Policy")) { readPolicy(ctx, file, c); continue; }
+                if (is(c, "Plugin")) continue;  // read first, by readPlugins
                 break;
             case Block::Agents:
                 if (is(c, "Agent")) { readAgent(ctx, file, c); continue; }
@@ -691,6 +723,8 @@ void readSimulation(LoadContext& ctx, const std::string& file, const XMLElement*
                                                   *r.text("delta_time_fine") + " s)");
     }
 
+    // Plugins first: the policies below may use their components.
+    readPlugins(ctx, file, el);
     const XMLElement* world = nullptr;
     const XMLElement* output = nullptr;
     const XMLElement* safety = nullptr;
@@ -722,10 +756,12 @@ void readSimulation(LoadContext& ctx, const std::string& file, const XMLElement*
             readSchedule(ctx, file, c);
         } else if (is(c, "Measurement")) {
             readMeasurement(ctx, file, c);
+        } else if (is(c, "Plugin")) {
+            // read first, by readPlugins
         } else {
             reportUnexpectedElement(ctx, file, c, el->Name(),
                                     {"World", "Policies", "Agents", "Obstacles", "Output", "Safety", "Schedule",
-                                     "Measurement"});
+                                     "Measurement", "Plugin"});
         }
     }
     if (world == nullptr) ctx.diags.error(r.loc(), "Simulation: missing required element <World>");

@@ -58,6 +58,8 @@ struct LoadContext {
     std::map<std::string, SourceLoc> venueLocs;
     /// A <Policies>/<Agents> file could not be read: skip the checks that would only repeat that.
     bool policiesIncomplete = false;
+    /// A <Plugin> could not be loaded (its components are then unknown: said in that message).
+    bool pluginFailed = false;
     bool agentsIncomplete = false;
 };
 

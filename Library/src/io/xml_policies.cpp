@@ -127,6 +127,8 @@ std::optional<ComponentSpec> readComponent(LoadContext& ctx, const std::string& 
         const std::string hint = closestMatch(name, Registry::instance().names());
         if (!hint.empty()) msg += " (did you mean '" + hint + "'?)";
         msg += "; registered: " + registeredNames();
+        if (ctx.pluginFailed) msg += " (a <Plugin> of this scenario could not be loaded; see above)";
+        else if (hint.empty()) msg += " (a component from a plugin needs <Plugin file=\"…\"/> or --plugin FILE)";
         const tinyxml2::XMLAttribute* a = el->FindAttribute("name");
         ctx.diags.error(SourceLoc{file, a->GetLineNum()}, msg);
         return std::nullopt;

@@ -6,8 +6,10 @@
 #include "crowdhealth/core/component.h"
 #include "crowdhealth/core/params.h"
 
+#include <deque>
 #include <functional>
 #include <memory>
+#include <shared_mutex>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -28,6 +30,8 @@ struct ComponentInfo {
     /// unless the file sets ContactForceScale, which is then warned about): contact is applied once.
     bool modelsContact = false;
     std::function<std::unique_ptr<Component>(const ParamSet&)> create;
+    /// Where it comes from: empty for a built-in component, else the plugin file (set by the loader).
+    std::string origin;
 };
 
 class RegistryError : public std::logic_error {
@@ -40,8 +44,11 @@ public:
     static Registry& instance();
 
     /// Adds a component. Throws RegistryError when the name is already taken or the info is
-    /// incomplete. Returns true (so it can initialise a static).
+    /// incomplete (problem() says why). Returns true (so it can initialise a static).
     bool add(ComponentInfo info);
+    /// Why `info` cannot be added ("" when it can): no name, no factory, a name already taken, or
+    /// a parameter that redeclares a common one.
+    std::string problem(const ComponentInfo& info) const;
     const ComponentInfo* find(const std::string& name) const;
     /// Registered names, sorted.
     std::vector<std::string> names() const;
@@ -54,7 +61,11 @@ public:
     static ParamTable fullTable(const ComponentInfo& info);
 
 private:
-    std::vector<ComponentInfo> entries_;
+    const ComponentInfo* findLocked(const std::string& name) const;
+    // A deque: a plugin loaded while simulations run adds entries without moving the ones those
+    // simulations point to. The mutex lets a plugin be loaded while other threads load scenarios.
+    std::deque<ComponentInfo> entries_;
+    mutable std::shared_mutex mutex_;
 };
 
 /// Builds a component from its spec values (throws RegistryError for an unknown name).

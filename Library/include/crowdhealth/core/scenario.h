@@ -235,6 +235,8 @@ std::optional<TrajectoryFormats> parseTrajectoryFormats(const std::string& text)
 /// Everything needed to build a Simulation.
 struct ScenarioSpec {
     std::string sourceFile;   ///< the main XML file (for messages and summaries)
+    /// Plugins named by <Plugin file="…"/> (canonical paths, in file order), loaded by the loader.
+    std::vector<std::string> plugins;
     double deltaTime = 0.1;   ///< coarse step (s)
     double deltaTimeFine = 0; ///< fine step (s); 0 = same as deltaTime
     double endTime = -1;      ///< s; < 0 = run until every agent has left (or --end-time)
