@@ -120,6 +120,11 @@ BOOST_AUTO_TEST_CASE(the_plugin_force_keeps_two_walkers_at_its_distance) {
     BOOST_TEST(readFile(dir / "cli1" / "trajectories.txt") == readFile(dir / "with" / "trajectories.txt"));
     BOOST_TEST(readFile(dir / "cli2" / "trajectories.txt") == readFile(dir / "with" / "trajectories.txt"));
     BOOST_TEST(readFile(dir / "cli1" / "metrics.csv") == readFile(dir / "cli2" / "metrics.csv"));
+    // summary.json names the plugin (provenance), whether <Plugin> or --plugin brought it.
+    const std::string quoted = "\"plugins\": [\n    \"" + fs::canonical(kPlugin).string() + "\"\n  ]";
+    BOOST_TEST(contains(readFile(dir / "with" / "summary.json"), quoted), readFile(dir / "with" / "summary.json"));
+    BOOST_TEST(contains(readFile(dir / "cli1" / "summary.json"), quoted));
+    BOOST_TEST(contains(readFile(dir / "without" / "summary.json"), "\"plugins\": [],"));
 }
 
 BOOST_AUTO_TEST_CASE(a_plugin_named_in_a_policies_file_relative_to_that_file) {

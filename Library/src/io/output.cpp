@@ -4,6 +4,7 @@
 #include "crowdhealth/core/grid.h"
 #include "crowdhealth/io/json.h"
 #include "crowdhealth/core/kernels.h"
+#include "crowdhealth/core/registry.h"
 #include "crowdhealth/health/safety.h"
 
 #include <algorithm>
@@ -570,6 +571,17 @@ std::string summaryJson(const Simulation& sim, const RunInfo& info, const Metric
     Json j;  // keys in the documented order (docs/user-guide.md, summary.json)
     j["scenario"] = scenario;
     j["seed"] = spec.seed;
+    // Provenance: the plugins named by the scenario and those of the components its policies use.
+    {
+        std::vector<std::string> plugins = spec.plugins;
+        for (const PolicySpec& p : spec.policies)
+            for (const StepSpec& st : p.steps)
+                for (const ComponentSpec& c : st.components)
+                    if (const ComponentInfo* info = Registry::instance().find(c.name); info != nullptr && !info->origin.empty() &&
+                                                                                      std::find(plugins.begin(), plugins.end(), info->origin) == plugins.end())
+                        plugins.push_back(info->origin);
+        j["plugins"] = plugins;
+    }
     j["delta_time"] = jsonNumber(sim.deltaTime());
     j["delta_time_fine"] = jsonNumber(sim.deltaTimeFine());
     j["end_time"] = info.endTime >= 0 ? jsonNumber(info.endTime) : Json(nullptr);
