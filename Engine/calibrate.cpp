@@ -877,13 +877,11 @@ int calibrateCommand(int argc, char* argv[]) {
     std::string errorNote;
     {
         std::vector<std::vector<double>> points;
-        std::vector<double> step(p);
         for (std::size_t j = 0; j < p; ++j) {
             const double h = 0.05 * (s.fits[j].hi - s.fits[j].lo);
             std::vector<double> a = fitted.values, b = fitted.values;
             a[j] = std::max(s.fits[j].lo, a[j] - h);
             b[j] = std::min(s.fits[j].hi, b[j] + h);
-            step[j] = b[j] - a[j];
             points.push_back(a);
             points.push_back(b);
         }
@@ -897,17 +895,28 @@ int calibrateCommand(int argc, char* argv[]) {
         bool ok = true;
         std::vector<std::vector<double>> J(n, std::vector<double>(p, 0.0));
         for (std::size_t j = 0; j < p && ok; ++j) {
-            const Evaluation& lo = evaluations[searchEvaluations + 2 * j];
-            const Evaluation& hi = evaluations[searchEvaluations + 2 * j + 1];
-            if (!lo.error.empty() || !hi.error.empty()) {
+            // Central where both sides ran; one-sided (with the optimum itself) where one failed.
+            const Evaluation* lo = &evaluations[searchEvaluations + 2 * j];
+            const Evaluation* hi = &evaluations[searchEvaluations + 2 * j + 1];
+            if (!lo->error.empty() && !hi->error.empty()) {
                 ok = false;
-                errorNote = "a run near the optimum failed";
+                errorNote = "the runs on both sides of the optimum failed for " + s.fits[j].target;
                 break;
             }
+            if (!lo->error.empty()) lo = &fitted;
+            if (!hi->error.empty()) hi = &fitted;
+            const double dx = hi->values[j] - lo->values[j];
+            if (!(dx > 0)) {
+                ok = false;
+                errorNote = "no step around the optimum for " + s.fits[j].target;
+                break;
+            }
+            if (lo == &fitted || hi == &fitted)
+                errorNote = "one-sided differences for " + s.fits[j].target + " (the runs on one side failed)";
             for (std::size_t i = 0; i < n; ++i) {
                 const CalibrationData::Row& r = data->rows[i];
                 const double scale = relative ? r.y : 1.0;
-                J[i][j] = (hi.mean[r.condition] - lo.mean[r.condition]) / step[j] / scale;
+                J[i][j] = (hi->mean[r.condition] - lo->mean[r.condition]) / dx / scale;
             }
         }
         std::vector<std::vector<double>> A(p, std::vector<double>(p, 0.0));
@@ -1015,9 +1024,11 @@ int calibrateCommand(int argc, char* argv[]) {
     bool plotted = false;
     if (chplot::findGnuplot()) {
         chplot::GnuplotJob job;
-        std::string title = "calibration of " + fs::path(s.input).filename().string() + ": ";
+        std::string title = "fitted: ";
         for (std::size_t k = 0; k < p; ++k) {
-            title += (k ? ", " : "") + s.fits[k].target + " = " + cell(fitted.values[k]);
+            char v[32];
+            std::snprintf(v, sizeof v, "%.4g", fitted.values[k]);
+            title += (k ? ", " : "") + s.fits[k].target + " = " + v;
             if (std::isfinite(seFit[k])) {
                 char b[32];
                 std::snprintf(b, sizeof b, "%.2g", seFit[k]);
@@ -1042,7 +1053,8 @@ int calibrateCommand(int argc, char* argv[]) {
             model.push_back({data->conditions[c][0], fitted.mean[c], fitted.mean[c] - fitted.sd[c], fitted.mean[c] + fitted.sd[c]});
         for (const CalibrationData::Row& r : data->rows) points.push_back({r.x[0], r.y});
         job.cmd("plot '-' using 1:2:3:4 with yerrorlines lw 2 pt 7 lc rgb '#1f77b4' title " +
-                chplot::gpString("model, fitted: mean +/- sd of " + std::to_string(seeds) + " seeds") +
+                chplot::gpString("model (" + fs::path(s.input).filename().string() + "), fitted: mean +/- sd of " +
+                                 std::to_string(seeds) + " seeds") +
                 ", '-' using 1:2 with points pt 9 ps 1.6 lc rgb '#d62728' title " +
                 chplot::gpString("data (" + fs::path(dataPath).filename().string() + ")"));
         job.data(std::move(model));
@@ -1062,8 +1074,10 @@ int calibrateCommand(int argc, char* argv[]) {
                   << " for the errors, " << evaluations.size() * conditions * seeds << " runs in "
                   << formatDuration(wallSeconds) << "\n";
         for (std::size_t k = 0; k < p; ++k)
-            std::cout << "  " << s.fits[k].target << " = " << cell(fitted.values[k]) << " +/- " << cell(seFit[k])
-                      << " (seeds: +/- " << cell(seSeeds[k]) << ")\n";
+            std::cout << "  " << s.fits[k].target << " = " << cell(fitted.values[k]) << " +/- "
+                      << (std::isfinite(seFit[k]) ? cell(seFit[k]) : "?") << " (seeds: +/- "
+                      << (std::isfinite(seSeeds[k]) ? cell(seSeeds[k]) : "?") << ")\n";
+        if (!errorNote.empty()) std::cout << "  errors: " << errorNote << "\n";
         std::cout << "  objective " << cell(fitted.objective) << ", rms residual " << cell(std::sqrt(fitted.objective / weightSum))
                   << "\n  output  " << (output / "calibration.csv").string() << ", "
                   << (output / "calibration-result.json").string();
