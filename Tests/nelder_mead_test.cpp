@@ -117,3 +117,30 @@ BOOST_AUTO_TEST_CASE(interrupted_when_the_objective_says_so) {
     BOOST_TEST(r.interrupted);
     BOOST_TEST(calls == 3u);
 }
+
+BOOST_AUTO_TEST_CASE(the_textbook_steps_on_a_slope) {
+    // f(x) = -x on [0, 1] in one dimension, so every step can be followed by hand in u
+    // (x = (1 + sin u) / 2): the simplex {0, 0.6} (the centre and the first step); the best is
+    // 0.6, the reflection of 0 through it is 1.2, better than the best, so the expansion 1.8 is
+    // tried, is better still and replaces the worst vertex; the simplex {1.8, 0.6} then reflects
+    // 0.6 through 1.8 to 3.0.
+    std::vector<std::string> steps;
+    Counted c{[](const std::vector<double>& x) { return -x[0]; }};
+    BatchObjective inner = c.objective();
+    BatchObjective f = [&](const std::vector<std::vector<double>>& xs, const std::string& step) {
+        for (std::size_t k = 0; k < xs.size(); ++k) steps.push_back(step);
+        return inner(xs, step);
+    };
+    BoxSearchOptions o;
+    o.lo = {0};
+    o.hi = {1};
+    o.maxEvaluations = 5;
+    nelderMeadInBox(f, o);
+    BOOST_REQUIRE_GE(c.asked.size(), 5u);
+    const std::vector<double> u = {0, 0.6, 1.2, 1.8, 3.0};
+    const std::vector<std::string> names = {"start", "start", "reflect", "expand", "reflect"};
+    for (std::size_t k = 0; k < 5; ++k) {
+        BOOST_TEST(std::abs(c.asked[k][0] - 0.5 * (1 + std::sin(u[k]))) < 1e-12, "point " << k << ": " << c.asked[k][0]);
+        BOOST_TEST(steps[k] == names[k]);
+    }
+}
