@@ -103,6 +103,8 @@ void printHelp(std::ostream& out) {
            "       crowdhealth plot DIR | compare DIR... [-o OUTDIR]   (see 'crowdhealth plot --help')\n"
            "       crowdhealth sweep -i SCENARIO -o OUTDIR --vary TARGET=VALUES [--vary ...] [--replications N]\n"
            "                         (parameter studies; see 'crowdhealth sweep --help')\n"
+           "       crowdhealth calibrate -i SCENARIO --fit TARGET=LO:HI [--fit ...] --data FILE [--seeds N]\n"
+           "                         (fit parameters to data; see 'crowdhealth calibrate --help')\n"
            "       crowdhealth verify [-o DIR] [--quick] [--policy NAME...] [--test ID...] [--jobs N]\n"
            "       crowdhealth --list-policies [--plugin FILE] [--format text|markdown]\n\n"
            "Runs a CrowdHealth (UMANS-compatible) crowd scenario and writes metrics.csv,\n"

@@ -1,5 +1,6 @@
 // crowdhealth — the command-line program: run a scenario, check it, or list the components.
 // Usage: see `crowdhealth --help` (cli.cpp). Exit statuses: exit_codes.h.
+#include "calibrate.h"
 #include "cli.h"
 #include "compare.h"
 #include "exit_codes.h"
@@ -28,6 +29,8 @@ int main(int argc, char* argv[]) {
         if (argc > 1 && std::string_view(argv[1]) == "verify") return verifyCommand(argc - 1, argv + 1);
         // `crowdhealth sweep …`: parameter studies (sweep.h, docs/sweeps.md).
         if (argc > 1 && std::string_view(argv[1]) == "sweep") return sweepCommand(argc - 1, argv + 1);
+        // `crowdhealth calibrate …`: fitting parameters to experimental data (calibrate.h, docs/sweeps.md).
+        if (argc > 1 && std::string_view(argv[1]) == "calibrate") return calibrateCommand(argc - 1, argv + 1);
         const std::optional<Options> options = parseCommandLine(argc, argv, std::cerr);
         if (!options) return kExitInput;
         for (const std::string& file : options->plugins) {

@@ -605,6 +605,10 @@ std::string firstDifference(const std::string& was, const std::string& now) {
 
 }  // namespace
 
+std::optional<std::string> parseSweepTarget(const std::string& target, ch::RampSpec& ramp) {
+    return parseTarget(target, ramp);
+}
+
 int sweepCommand(int argc, char* argv[]) {
     po::options_description visible("Options");
     // clang-format off

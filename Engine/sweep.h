@@ -53,6 +53,11 @@ struct SweepResult {
 /// when it is not valid (empty, not a number, step ≤ 0, b < a, a repeated value, over 100000).
 std::optional<std::string> parseSweepValues(const std::string& text, std::vector<double>& values);
 
+/// Parses TARGET of `--vary TARGET=VALUES` (and of `calibrate --fit TARGET=LO:HI`) into a ramp:
+/// POLICY.COMPONENT.PARAMETER or agents.ATTRIBUTE. Returns the reason when it is malformed; the
+/// check against the scenario's tables is ch::rampTargetProblem's.
+std::optional<std::string> parseSweepTarget(const std::string& target, ch::RampSpec& ramp);
+
 /// (a) The runs: combination-major (the first axis varies slowest), seeds S … S+N−1 innermost.
 std::vector<SweepRun> expandSweep(const std::vector<SweepAxis>& axes, std::uint64_t firstSeed,
                                   std::size_t replications);

@@ -366,6 +366,24 @@ bool loadDocument(LoadContext& ctx, const std::string& path, const SourceLoc* na
     return false;
 }
 
+/// Parses `text` as the content of `path` (LoadOptions::text), with loadDocument's messages.
+bool parseDocumentText(LoadContext& ctx, const std::string& path, const std::string& text, tinyxml2::XMLDocument& doc) {
+    const tinyxml2::XMLError err = doc.Parse(text.data(), text.size());
+    if (err == tinyxml2::XML_SUCCESS) return true;
+    if (err == tinyxml2::XML_ERROR_EMPTY_DOCUMENT) {
+        ctx.diags.error(SourceLoc{path, 1}, "the file holds no XML element");
+        return false;
+    }
+    std::string detail = doc.ErrorStr() != nullptr ? doc.ErrorStr() : "";
+    const auto lineTag = detail.find("Line number=");
+    const auto colon = lineTag == std::string::npos ? std::string::npos : detail.find(": ", lineTag);
+    detail = colon == std::string::npos ? "" : detail.substr(colon + 2);
+    std::string msg = "XML syntax error: " + friendlyErrorName(doc.ErrorName());
+    if (!detail.empty()) msg += " (" + detail + ")";
+    ctx.diags.error(SourceLoc{path, doc.ErrorLineNum()}, msg);
+    return false;
+}
+
 void readBlock(LoadContext& ctx, const std::string& file, const XMLElement* el, Block kind, bool external);
 
 /// `<Agents file="…"/>` and friends: reads the expected root element(s) of the named file.
@@ -921,7 +939,11 @@ std::optional<ScenarioSpec> loadScenario(const std::string& path, Diagnostics& d
     LoadContext ctx(diags, spec);
 
     tinyxml2::XMLDocument doc;
-    if (!loadDocument(ctx, path, nullptr, path, doc)) return std::nullopt;
+    if (options.text) {
+        if (!parseDocumentText(ctx, path, *options.text, doc)) return std::nullopt;
+    } else if (!loadDocument(ctx, path, nullptr, path, doc)) {
+        return std::nullopt;
+    }
 
     const XMLElement* simulation = nullptr;
     for (const XMLElement* top = doc.FirstChildElement(); top != nullptr; top = top->NextSiblingElement()) {

@@ -15,6 +15,10 @@ struct LoadOptions {
     /// Overrides Simulation@seed (used by --seed and replications). Generated agents
     /// (<AgentGrid>, <SpawnRectangle>) draw their random radii/noise from the final seed.
     std::optional<std::uint64_t> seed;
+    /// The main file's content, used instead of reading `path` (which still names it in messages
+    /// and is where relative file= paths resolve from). `crowdhealth calibrate` loads a scenario
+    /// template with its ${…} placeholders filled in this way (Engine/calibrate.h).
+    std::optional<std::string> text;
 };
 
 /// Loads a scenario file and every file it names (relative paths resolve against the file that
