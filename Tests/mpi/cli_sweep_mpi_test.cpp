@@ -34,9 +34,10 @@ void allowRoot() {
     setenv("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1", 1);
 }
 
-/// `mpirun -n ranks --oversubscribe crowdhealth args…` (2 cores, 3 ranks: oversubscribed).
+/// `mpirun -n ranks --oversubscribe crowdhealth args…` (2 cores, 3 ranks: oversubscribed). A rank
+/// left waiting for a message that never comes would hang the test: mpirun ends it after 120 s.
 std::vector<std::string> mpiArgs(int ranks, const std::vector<std::string>& args) {
-    std::vector<std::string> a = {"-n", std::to_string(ranks), "--oversubscribe", CH_BINARY};
+    std::vector<std::string> a = {"-n", std::to_string(ranks), "--oversubscribe", "--timeout", "120", CH_BINARY};
     a.insert(a.end(), args.begin(), args.end());
     return a;
 }
