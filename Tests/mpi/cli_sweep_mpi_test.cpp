@@ -42,9 +42,38 @@ std::vector<std::string> mpiArgs(int ranks, const std::vector<std::string>& args
     return a;
 }
 
-Result runMpi(const fs::path& dir, int ranks, const std::vector<std::string>& args) {
+/// What `runMpi` gives: the program's result as mpirun passes it on, and each rank's exit status.
+struct MpiResult : Result {
+    std::vector<int> ranks;  ///< exit status of rank 0, 1, … (-1: not known)
+};
+
+/// `mpirun … crowdhealth args…` in `dir`. With `eachRank`, every rank runs through a shell that
+/// writes its exit status to dir/_rankN.status (every rank must exit with the command's status,
+/// not only rank 0), and mpirun is told not to end the other ranks when one exits with a status
+/// other than 0 (it then exits 0 itself, so its status means nothing).
+MpiResult runMpi(const fs::path& dir, int ranks, const std::vector<std::string>& args, bool eachRank = false) {
     allowRoot();
-    return runIn(dir, "", CH_MPIRUN, mpiArgs(ranks, args));
+    std::vector<std::string> a = mpiArgs(ranks, args);
+    if (eachRank) {
+        setenv("OMPI_MCA_orte_abort_on_non_zero_status", "0", 1);
+        for (int r = 0; r < ranks; ++r) fs::remove(dir / ("_rank" + std::to_string(r) + ".status"));
+        const auto program = std::find(a.begin(), a.end(), std::string(CH_BINARY));
+        a.insert(program, {"/bin/sh", "-c", "\"$0\" \"$@\"; s=$?; echo $s > _rank$OMPI_COMM_WORLD_RANK.status; exit $s"});
+    } else {
+        unsetenv("OMPI_MCA_orte_abort_on_non_zero_status");
+    }
+    MpiResult m;
+    static_cast<Result&>(m) = runIn(dir, "", CH_MPIRUN, a);
+    for (int r = 0; eachRank && r < ranks; ++r) {
+        const std::string text = readFile(dir / ("_rank" + std::to_string(r) + ".status"));
+        m.ranks.push_back(text.empty() ? -1 : std::stoi(text));
+    }
+    return m;
+}
+
+/// True when every rank exited with `status`.
+bool allRanksExited(const MpiResult& m, int status) {
+    return !m.ranks.empty() && std::all_of(m.ranks.begin(), m.ranks.end(), [&](int s) { return s == status; });
 }
 
 /// sweep.csv without its last column (wall_time).
@@ -86,6 +115,7 @@ class MpiBackground {
 public:
     MpiBackground(const fs::path& dir, std::vector<std::string> args) {
         allowRoot();
+        unsetenv("OMPI_MCA_orte_abort_on_non_zero_status");
         args.insert(args.begin(), CH_MPIRUN);
         const std::string out = (dir / "_stdout.txt").string(), err = (dir / "_stderr.txt").string();
         pid_ = fork();
@@ -127,7 +157,7 @@ private:
 
 BOOST_AUTO_TEST_CASE(three_ranks_give_the_same_files_and_print_once) {
     const fs::path d = freshDir(caseName());
-    const Result r = runMpi(d, 3, sweepArgs(d / "out", kGrid));
+    const MpiResult r = runMpi(d, 3, sweepArgs(d / "out", kGrid));
     BOOST_REQUIRE_MESSAGE(r.status == 0, r.err);
     BOOST_TEST(withoutWallTime(readFile(d / "out" / "sweep.csv")) == withoutWallTime(readFile(localGrid() / "sweep.csv")));
     BOOST_TEST(readFile(d / "out" / "sweep-summary.csv") == readFile(localGrid() / "sweep-summary.csv"));
@@ -157,8 +187,10 @@ BOOST_AUTO_TEST_CASE(a_failing_run_is_marked_and_the_others_finish) {
                                            "--debug-fail-run", "1", "--quiet"};
     const Result local = run(d, sweepArgs(d / "local", args));
     BOOST_TEST(local.status == 1);
-    const Result r = runMpi(d, 3, sweepArgs(d / "out", args));
-    BOOST_TEST(r.status == 1);  // every rank exits 1, so mpirun does
+    const MpiResult r = runMpi(d, 3, sweepArgs(d / "out", args));
+    BOOST_TEST(r.status == 1);
+    const MpiResult each = runMpi(d, 3, sweepArgs(d / "each", args), true);
+    BOOST_TEST(allRanksExited(each, 1));
     BOOST_TEST(count(r.err, "run 1 (seed 11) failed: failed on purpose") == 1u, r.err);
     const std::vector<std::string> rows = lines(readFile(d / "out" / "sweep.csv"));
     BOOST_REQUIRE_EQUAL(rows.size(), 4u);
@@ -215,22 +247,26 @@ BOOST_AUTO_TEST_CASE(a_killed_mpi_sweep_resumes_to_the_same_files) {
 BOOST_AUTO_TEST_CASE(errors_are_printed_once_and_every_rank_exits_2) {
     const fs::path d = freshDir(caseName());
     // A bad value: found by every rank in the arguments.
-    const Result bad = runMpi(d, 3, sweepArgs(d / "out", {"--vary", "agents.pref_speed=1,abc"}));
+    const MpiResult bad = runMpi(d, 3, sweepArgs(d / "out", {"--vary", "agents.pref_speed=1,abc"}));
     BOOST_TEST(bad.status == 2);
+    BOOST_TEST(allRanksExited(runMpi(d, 3, sweepArgs(d / "out", {"--vary", "agents.pref_speed=1,abc"}), true), 2));
     BOOST_TEST(count(bad.err, "crowdhealth: error: --vary 'agents.pref_speed=1,abc'") == 1u, bad.err);
     BOOST_TEST(!fs::exists(d / "out"));
     // A bad target: found when the scenario is loaded.
-    const Result target = runMpi(d, 3, sweepArgs(d / "out", {"--vary", "7.SPH.restDensityMax=3"}));
+    const MpiResult target = runMpi(d, 3, sweepArgs(d / "out", {"--vary", "7.SPH.restDensityMax=3"}));
     BOOST_TEST(target.status == 2);
+    BOOST_TEST(allRanksExited(runMpi(d, 3, sweepArgs(d / "out", {"--vary", "7.SPH.restDensityMax=3"}), true), 2));
     BOOST_TEST(count(target.err, "policy 7 does not exist") == 1u, target.err);
     // OUTDIR not empty and no sweep there: only rank 0 looks at OUTDIR; the others must not wait for it.
     fs::create_directories(d / "full");
     std::ofstream(d / "full" / "something.txt") << "x\n";
-    const Result full = runMpi(d, 3, sweepArgs(d / "full", {"--vary", "agents.pref_speed=1"}));
+    const MpiResult full = runMpi(d, 3, sweepArgs(d / "full", {"--vary", "agents.pref_speed=1"}));
     BOOST_TEST(full.status == 2);
+    BOOST_TEST(allRanksExited(runMpi(d, 3, sweepArgs(d / "full", {"--vary", "agents.pref_speed=1"}), true), 2));
     BOOST_TEST(count(full.err, "holds no sweep") == 1u, full.err);
     // --help: printed once.
-    const Result help = runMpi(d, 3, {"sweep", "--help"});
+    const MpiResult help = runMpi(d, 3, {"sweep", "--help"});
     BOOST_TEST(help.status == 0);
+    BOOST_TEST(allRanksExited(runMpi(d, 3, {"sweep", "--help"}, true), 0));
     BOOST_TEST(count(help.out, "Usage: crowdhealth sweep") == 1u, help.out);
 }
