@@ -139,6 +139,23 @@ public:
     MpiBackground(const MpiBackground&) = delete;
     MpiBackground& operator=(const MpiBackground&) = delete;
     void signal(int signo) const { ::kill(pid_, signo); }
+    /// The process of MPI rank `rank` (a child of mpirun, found through /proc), or -1.
+    pid_t rankPid(int rank) const {
+        for (const auto& e : fs::directory_iterator("/proc")) {
+            const std::string name = e.path().filename().string();
+            if (name.find_first_not_of("0123456789") != std::string::npos) continue;
+            std::istringstream stat(readFile(e.path() / "stat"));
+            std::string pid, comm, state;
+            pid_t parent = 0;
+            stat >> pid >> comm >> state >> parent;
+            if (parent != pid_) continue;
+            std::string environ = readFile(e.path() / "environ");
+            std::replace(environ.begin(), environ.end(), '\0', '\n');
+            if (("\n" + environ).find("\nOMPI_COMM_WORLD_RANK=" + std::to_string(rank) + "\n") != std::string::npos)
+                return static_cast<pid_t>(std::stol(name));
+        }
+        return -1;
+    }
     int wait() {
         int raw = 0;
         waitpid(pid_, &raw, 0);
@@ -235,6 +252,17 @@ BOOST_AUTO_TEST_CASE(a_killed_mpi_sweep_resumes_to_the_same_files) {
     }
     const std::size_t afterKill = records(d / "out");
     BOOST_TEST_REQUIRE(afterKill < 40u);
+    BOOST_TEST(!fs::exists(d / "out" / "sweep.csv"));
+    {  // SIGTERM to rank 0 alone: it hands out no more runs, records the two going, stops the workers
+        MpiBackground b(d, mpiArgs(3, sweepArgs(d / "out", args)));
+        BOOST_REQUIRE(waitFor([&] { return records(d / "out") >= afterKill + 2; }, 120));
+        const pid_t controller = b.rankPid(0);
+        BOOST_REQUIRE(controller > 0);
+        ::kill(controller, SIGTERM);
+        BOOST_TEST(b.wait() == 130);  // every rank exits 130
+        BOOST_TEST(count(readFile(d / "_stderr.txt"), "run the same command again") == 1u, readFile(d / "_stderr.txt"));
+    }
+    BOOST_TEST_REQUIRE(records(d / "out") < 40u);
     BOOST_TEST(!fs::exists(d / "out" / "sweep.csv"));
     const Result resumed = runMpi(d, 3, sweepArgs(d / "out", args));
     BOOST_REQUIRE_MESSAGE(resumed.status == 0, resumed.err);
