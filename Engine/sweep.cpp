@@ -904,8 +904,20 @@ int sweepCommand(int argc, char* argv[]) {
             std::cerr << message << "\n";
         }
     };
-    const auto tick = [&](const JobPoolState& st) { progress.draw(st.done, st.running, st.slowest); };
     const auto wallStart = std::chrono::steady_clock::now();
+    // Under mpirun rank 0's stderr is a pipe to mpirun, never a terminal: instead of the progress
+    // line, a line of text every minute (it reads well in a batch job's log too).
+    const bool logLines = !s.quiet && pool.distributed() && !ProgressBar::stderrIsTerminal();
+    auto nextLog = std::chrono::steady_clock::now() + std::chrono::minutes(1);
+    const auto tick = [&](const JobPoolState& st) {
+        progress.draw(st.done, st.running, st.slowest);
+        if (logLines && std::chrono::steady_clock::now() >= nextLog) {
+            nextLog += std::chrono::minutes(1);
+            std::cerr << "crowdhealth: sweep: " << st.done << " of " << todo.size() << " runs done, " << st.running
+                      << " running, elapsed " << formatDuration(std::chrono::duration<double>(std::chrono::steady_clock::now() - wallStart).count())
+                      << "\n";
+        }
+    };
     pool.run(jobs, finished, tick);
     progress.finish();
     const double wallSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - wallStart).count();
