@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
+#include <initializer_list>
 #include <iostream>
 #include <limits>
 #include <memory>
@@ -107,6 +108,20 @@ std::uint64_t indexOf(const std::string& m) {
     if (m.size() >= sizeof index) std::memcpy(&index, m.data(), sizeof index);
     return index;
 }
+#else
+/// Built without MPI but launched by mpirun/srun anyway: this process's rank and the number of
+/// ranks, from the launcher's variables (0 and 1 when not launched so). Only rank 0 then works.
+int launcherVariable(std::initializer_list<const char*> names, int fallback) {
+    for (const char* name : names)
+        if (const char* v = std::getenv(name)) {
+            char* end = nullptr;
+            const long n = std::strtol(v, &end, 10);
+            if (end != v && *end == '\0' && n >= 0 && n < 1000000) return static_cast<int>(n);
+        }
+    return fallback;
+}
+int launcherRank() { return launcherVariable({"OMPI_COMM_WORLD_RANK", "PMIX_RANK", "PMI_RANK"}, 0); }
+int launcherSize() { return launcherVariable({"OMPI_COMM_WORLD_SIZE", "PMI_SIZE"}, 1); }
 #endif
 
 }  // namespace
@@ -115,7 +130,7 @@ int JobPool::rank() {
 #ifdef CROWDHEALTH_MPI
     return mpi().rank;
 #else
-    return 0;
+    return launcherRank();
 #endif
 }
 
@@ -129,6 +144,16 @@ int JobPool::ranks() {
 
 JobPool::JobPool(JobWork work, JobPoolOptions options) : work_(std::move(work)), options_(options) {
     rank();  // starts MPI if launched by mpirun/srun
+#ifndef CROWDHEALTH_MPI
+    // Every rank would run every job and write the same files: rank 0 alone works, on threads.
+    static bool warned = false;
+    if (launcherSize() > 1 && controller() && !warned) {
+        warned = true;
+        std::cerr << "crowdhealth: warning: launched on " << launcherSize()
+                  << " MPI ranks, but this program was built without MPI (CMake option CROWDHEALTH_MPI): "
+                     "rank 0 runs every job on local threads, the other ranks do nothing\n";
+    }
+#endif
 }
 
 JobPool::~JobPool() { finish(exitStatus_); }

@@ -17,7 +17,8 @@
 // MPI is started only when the program was launched by mpirun or srun (the plain program never
 // calls MPI_Init) and finalised at the end of the process. With one rank (`mpirun -n 1`) the
 // controller runs the jobs on local threads. Built without MPI (CMake option CROWDHEALTH_MPI
-// OFF), every process is a controller with local threads.
+// OFF), a process is a controller with local threads; launched by mpirun anyway, rank 0 (read
+// from the launcher's variables) does all the work with a warning and the others serve nothing.
 //
 // Results must depend only on the job text (each job runs on one thread with its own seed), so the
 // outputs do not depend on the number of workers, on MPI, or on the order the jobs finish in.
