@@ -7,6 +7,19 @@
 // same command and builds the same JobPool; rank 0 calls run(), the others call serve(). Jobs
 // and results travel as text, so the caller's code is the same either way.
 //
+// The contract for a command under MPI:
+//  * only the controller prints and writes files; the other ranks check what they need quietly;
+//  * checks whose outcome can differ between ranks (a file one host cannot read) end with
+//    agree(status) on every rank: when it returns non-zero, every rank returns that status and
+//    nobody calls run() or serve();
+//  * then the controller calls run() (once or more) and finish(status); the workers call serve()
+//    and return exitStatus(), so that every rank exits with the command's status.
+// MPI is started only when the program was launched by mpirun or srun (the plain program never
+// calls MPI_Init) and finalised at the end of the process. With one rank (`mpirun -n 1`) the
+// controller runs the jobs on local threads. Built without MPI (CMake option CROWDHEALTH_MPI
+// OFF), a process is a controller with local threads; launched by mpirun anyway, rank 0 (read
+// from the launcher's variables) does all the work with a warning and the others serve nothing.
+//
 // Results must depend only on the job text (each job runs on one thread with its own seed), so the
 // outputs do not depend on the number of workers, on MPI, or on the order the jobs finish in.
 #pragma once
@@ -45,7 +58,7 @@ public:
     /// True on the process that drives the study: always without MPI, rank 0 under MPI. Only
     /// the controller calls run(); the others call serve().
     bool controller() const;
-    /// How many jobs can run at once (threads, or MPI ranks − 1).
+    /// How many jobs can run at once (threads, or MPI ranks − 1; threads again with one rank).
     std::size_t workers() const;
 
     /// Controller: runs every job, at most workers() at a time. `done(index, result)` is called
@@ -62,11 +75,36 @@ public:
     void serve();
     /// Controller: tells the workers the study is over (also done by the destructor).
     void finish();
+    /// The same, handing `exitStatus` to the workers: after serve() they read it from exitStatus().
+    void finish(int exitStatus);
+    /// Worker ranks, after serve(): the status the controller passed to finish() (0 if none).
+    int exitStatus() const { return exitStatus_; }
+
+    /// Every rank (a collective under MPI): combines the outcome of checks each rank made for
+    /// itself and returns the largest status. Non-zero: the study does not start, no rank may
+    /// call run() or serve(), and finish() sends nothing. Without MPI it returns `status`.
+    int agree(int status);
+    /// True under MPI with at least one worker rank (jobs leave this process).
+    bool distributed() const { return ranks() > 1; }
+
+    /// This process's MPI rank and the number of ranks (0 and 1 without MPI). The first call of
+    /// either (or the first JobPool) starts MPI when the program was launched by mpirun or srun,
+    /// so a command can ask before it builds its pool (e.g. to print its errors on rank 0 only).
+    static int rank();
+    static int ranks();
 
 private:
+    bool runLocal(const std::vector<std::string>& jobs,
+                  const std::function<void(std::size_t, const std::string&)>& done,
+                  const std::function<void(const JobPoolState&)>& tick);
+    bool runDistributed(const std::vector<std::string>& jobs,
+                        const std::function<void(std::size_t, const std::string&)>& done,
+                        const std::function<void(const JobPoolState&)>& tick);
+
     JobWork work_;
     JobPoolOptions options_;
     bool finished_ = false;
+    int exitStatus_ = 0;
 };
 
 }  // namespace chcli

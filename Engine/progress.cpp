@@ -86,7 +86,7 @@ void ReplicationProgress::draw(std::size_t done, std::size_t running, double slo
     bar.resize(kBarWidth, '.');
     const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
     char slow[96] = "";
-    if (running > 0) {
+    if (running > 0 && std::isfinite(slowest)) {  // NaN: not known (runs on other MPI ranks)
         if (endTime_ > 0) std::snprintf(slow, sizeof slow, "  slowest t = %.1f / %.0f s", slowest, endTime_);
         else std::snprintf(slow, sizeof slow, "  slowest t = %.1f s", slowest);
     }

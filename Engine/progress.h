@@ -44,7 +44,7 @@ public:
     ReplicationProgress(std::ostream& out, bool enabled, std::size_t total, double endTime);
 
     /// Redraws the line. `slowest` (s) is the smallest simulated time among the runs going
-    /// (ignored when `running` is 0).
+    /// (ignored when `running` is 0; not shown when NaN, i.e. not known).
     void draw(std::size_t done, std::size_t running, double slowest);
     /// Erases the line, so that a message can be printed; the next draw() brings it back.
     void clear();

@@ -2,6 +2,7 @@
 #include "sweep.h"
 
 #include "exit_codes.h"
+#include "job_pool.h"
 #include "plot_gnuplot.h"
 #include "progress.h"
 #include "scenario_run.h"
@@ -525,6 +526,58 @@ static SweepResult executeSweepRun(const SweepSettings& s, const SweepRun& run, 
 
 namespace {
 
+/// A result that says why the run failed.
+SweepResult failedResult(const std::string& why) {
+    SweepResult r;
+    r.error = why;
+    return r;
+}
+
+/// What a worker sends back for one run: the record text (sweepRecordText) when it finished, else
+/// "failed", its wall time and the reason on one line.
+std::string sweepResultText(const SweepRun& run, const SweepResult& r) {
+    if (r.ok) return sweepRecordText(run, r);
+    std::string why = r.error;
+    std::replace(why.begin(), why.end(), '\n', ' ');
+    return "failed\nwall_time " + exact(r.wallTime) + "\nerror " + why + "\n";
+}
+
+/// The result of `run` from sweepResultText. Text that reads as neither is a failed run.
+SweepResult parseSweepResultText(const std::string& text, const SweepRun& run) {
+    if (std::optional<SweepResult> r = parseSweepRecord(text, run)) return *r;
+    const std::vector<std::string> l = splitOn(text, '\n');
+    SweepResult r;
+    if (l.size() >= 3 && l[0] == "failed" && l[1].rfind("wall_time ", 0) == 0 && l[2].rfind("error ", 0) == 0 &&
+        parseDouble(l[1].substr(10), r.wallTime)) {
+        r.error = l[2].substr(6);
+        return r;
+    }
+    return failedResult("its result does not belong to it or cannot be read");
+}
+
+/// Under MPI every rank runs the command; the streams of all ranks but the controller go nowhere.
+class SilentUnless {
+public:
+    explicit SilentUnless(bool speak) {
+        if (speak) return;
+        out_ = std::cout.rdbuf(nullptr);  // a stream without a buffer writes nothing
+        err_ = std::cerr.rdbuf(nullptr);
+    }
+    ~SilentUnless() {
+        if (out_ == nullptr && err_ == nullptr) return;
+        std::cout.rdbuf(out_);
+        std::cerr.rdbuf(err_);
+        std::cout.clear();
+        std::cerr.clear();
+    }
+    SilentUnless(const SilentUnless&) = delete;
+    SilentUnless& operator=(const SilentUnless&) = delete;
+
+private:
+    std::streambuf* out_ = nullptr;
+    std::streambuf* err_ = nullptr;
+};
+
 void printSweepHelp(std::ostream& out, const po::options_description& visible) {
     out << "Usage: crowdhealth sweep -i SCENARIO -o OUTDIR --vary TARGET=VALUES [--vary ...]\n"
            "                         [--replications N] [--seed S] [--jobs N] [--keep-runs] [--quiet]\n\n"
@@ -543,7 +596,10 @@ void printSweepHelp(std::ostream& out, const po::options_description& visible) {
            "Resume: every finished run leaves a record in OUTDIR/.sweep/runs; the same command again runs\n"
            "only the runs without one (a failed run is tried again) and writes the same files. Other\n"
            "arguments (or an edited scenario) with the same OUTDIR are refused (exit 2).\n"
-           "Not yet: MPI (mpirun) and calibration (docs/sweeps.md).\n\n";
+           "MPI: `mpirun -n K crowdhealth sweep ...` (or srun) runs the same sweep on K processes: rank 0\n"
+           "hands out the runs one at a time to ranks 1 ... K-1 (one run each at a time; --jobs applies\n"
+           "only without MPI or with -n 1) and alone prints and writes OUTDIR. The files are the same\n"
+           "as without MPI apart from wall_time (docs/sweeps.md).\n\n";
     out << visible << "\n"
         << "Exit status: 0 every run finished; 1 a run failed (marked 'failed' in sweep.csv) or OUTDIR\n"
            "cannot be written; 2 bad arguments or scenario; 130 interrupted (run the command again to\n"
@@ -610,6 +666,9 @@ std::optional<std::string> parseSweepTarget(const std::string& target, ch::RampS
 }
 
 int sweepCommand(int argc, char* argv[]) {
+    // Under mpirun every rank runs this command with the same arguments and makes the same checks;
+    // only rank 0 (the controller) prints (job_pool.h).
+    const SilentUnless silent(JobPool::rank() == 0);
     po::options_description visible("Options");
     // clang-format off
     visible.add_options()
@@ -620,7 +679,7 @@ int sweepCommand(int argc, char* argv[]) {
          "repeat for more parameters (all combinations are run)")
         ("replications", po::value<std::string>()->value_name("N"), "seeds per combination (default 1)")
         ("seed", po::value<std::string>()->value_name("S"), "first seed (default: Simulation@seed)")
-        ("jobs,j", po::value<std::string>()->value_name("N"), "runs at a time, each on one thread (default: one per hardware thread)")
+        ("jobs,j", po::value<std::string>()->value_name("N"), "runs at a time, each on one thread (default: one per hardware thread; under MPI one per worker rank)")
         ("end-time", po::value<std::string>()->value_name("T"), "simulated time to stop at (s), overrides Simulation@end_time")
         ("keep-runs", "keep every run's output folder as OUTDIR/runs/run_NNNNNN (metrics.csv, summary.json, ...)")
         ("quiet,q", "no progress line and no closing lines")
@@ -696,76 +755,114 @@ int sweepCommand(int argc, char* argv[]) {
         if (combinations * s.replications > 10000000) return usage("the sweep would have more than 10 million runs");
     }
 
-    // ---- the scenario and every target and value, before anything is written ----
-    const Options base = runOptions(s, s.keepRuns);
-    const std::optional<ch::ScenarioSpec> first = loadSpec(base, s.seed, true);
-    if (!first) return kExitInput;
-    const std::uint64_t firstSeed = first->seed;
-    if (firstSeed > std::numeric_limits<std::uint64_t>::max() - (s.replications - 1))
-        return usage("the seeds " + std::to_string(firstSeed) + " ... +" + std::to_string(s.replications - 1) +
-                     " do not fit in 64 bits; give a smaller --seed");
-    for (std::size_t k = 0; k < s.axes.size(); ++k) {
-        const SweepAxis& a = s.axes[k];
-        const std::string arg = "--vary '" + s.varyTexts[k] + "'";
-        for (const double v : a.values) {
-            ch::RampSpec r = a.ramp;
-            r.from = r.to = v;
-            const std::string problem = ch::rampTargetProblem(*first, r);
-            if (!problem.empty()) return usage(arg + ": " + problem);
-        }
-        for (const ch::RampSpec& r : first->ramps)
-            if (r.column() == a.ramp.column())
-                return usage(arg + ": the scenario ramps " + r.column() + " itself (" + r.loc.file + ":" +
-                             std::to_string(r.loc.line) + "); a sweep holds the value for the whole run, remove that <Ramp>");
-    }
-    const std::vector<SweepRun> runs = expandSweep(s.axes, firstSeed, s.replications);
-    {
-        // Build the first run's simulation: unknown components and the like show here (exit 2).
-        const std::optional<ch::ScenarioSpec> spec = runSpec(s, runs.front(), true);
-        if (!spec) return kExitInput;
-        try {
-            ch::Simulation sim(*spec);
-        } catch (const std::exception& e) {
-            std::cerr << "crowdhealth: error: " << e.what() << "\n";
-            return kExitInput;
-        }
-        if (!planRun(base, *spec, true)) return kExitInput;
-    }
-
-    // ---- OUTDIR: new, or a sweep with the same arguments ----
+    // ---- the checks that can differ between MPI ranks (files), then agreed on by every rank ----
+    // Every rank loads the scenario (workers run jobs with it); only the controller looks at
+    // OUTDIR and writes there. The job of a run is its id; its result is its record text.
+    std::optional<ch::ScenarioSpec> first;
+    std::vector<SweepRun> runs;
+    std::size_t total = 0;
     const fs::path state = s.output / ".sweep";
     const fs::path recordsDir = state / "runs";
-    const std::string arguments = argumentsText(s, firstSeed);
-    std::error_code ec;
-    if (fs::exists(state / "arguments", ec)) {
-        std::ifstream in(state / "arguments", std::ios::binary);
-        std::ostringstream was;
-        was << in.rdbuf();
-        if (was.str() != arguments) {
+    const auto runDir = [&](const SweepRun& run) {
+        const std::string name = runName(run.id, total);
+        return s.keepRuns ? s.output / "runs" / name : state / "work" / name;
+    };
+    JobWork work = [&](const std::string& job, std::atomic<double>& clock) -> std::string {
+        std::uint64_t id = 0;
+        if (!parseUnsigned(job, id) || id >= runs.size()) return sweepResultText(SweepRun{}, failedResult("bad job '" + job + "'"));
+        const SweepRun& run = runs[id];
+        return sweepResultText(run, executeSweepRun(s, run, runDir(run), &clock));
+    };
+    JobPoolOptions poolOptions;
+    poolOptions.localJobs = s.jobs;
+    JobPool pool(work, poolOptions);
+
+    const int checked = [&]() -> int {
+        const Options base = runOptions(s, s.keepRuns);
+        first = loadSpec(base, s.seed, true);
+        if (!first) return kExitInput;
+        const std::uint64_t firstSeed = first->seed;
+        if (firstSeed > std::numeric_limits<std::uint64_t>::max() - (s.replications - 1))
+            return usage("the seeds " + std::to_string(firstSeed) + " ... +" + std::to_string(s.replications - 1) +
+                         " do not fit in 64 bits; give a smaller --seed");
+        for (std::size_t k = 0; k < s.axes.size(); ++k) {
+            const SweepAxis& a = s.axes[k];
+            const std::string arg = "--vary '" + s.varyTexts[k] + "'";
+            for (const double v : a.values) {
+                ch::RampSpec r = a.ramp;
+                r.from = r.to = v;
+                const std::string problem = ch::rampTargetProblem(*first, r);
+                if (!problem.empty()) return usage(arg + ": " + problem);
+            }
+            for (const ch::RampSpec& r : first->ramps)
+                if (r.column() == a.ramp.column())
+                    return usage(arg + ": the scenario ramps " + r.column() + " itself (" + r.loc.file + ":" +
+                                 std::to_string(r.loc.line) + "); a sweep holds the value for the whole run, remove that <Ramp>");
+        }
+        runs = expandSweep(s.axes, firstSeed, s.replications);
+        total = runs.size();
+        {
+            // Build the first run's simulation: unknown components and the like show here (exit 2).
+            const std::optional<ch::ScenarioSpec> spec = runSpec(s, runs.front(), true);
+            if (!spec) return kExitInput;
+            try {
+                ch::Simulation sim(*spec);
+            } catch (const std::exception& e) {
+                std::cerr << "crowdhealth: error: " << e.what() << "\n";
+                return kExitInput;
+            }
+            if (!planRun(base, *spec, true)) return kExitInput;
+        }
+        if (!pool.controller()) return kExitOk;
+
+        // ---- OUTDIR: new, or a sweep with the same arguments ----
+        const std::string arguments = argumentsText(s, firstSeed);
+        std::error_code ec;
+        if (fs::exists(state / "arguments", ec)) {
+            std::ifstream in(state / "arguments", std::ios::binary);
+            std::ostringstream was;
+            was << in.rdbuf();
+            if (was.str() != arguments) {
+                std::cerr << "crowdhealth: error: " << s.output.string()
+                          << " holds a sweep made with other arguments or another scenario ("
+                          << firstDifference(was.str(), arguments)
+                          << "); it is not resumed: give another -o OUTDIR, or the same arguments as before\n";
+                return kExitInput;
+            }
+        } else if (fs::is_directory(s.output, ec) && !fs::is_empty(s.output, ec)) {
             std::cerr << "crowdhealth: error: " << s.output.string()
-                      << " holds a sweep made with other arguments or another scenario ("
-                      << firstDifference(was.str(), arguments)
-                      << "); it is not resumed: give another -o OUTDIR, or the same arguments as before\n";
+                      << " is not empty and holds no sweep (no .sweep/arguments); give a new or empty -o OUTDIR\n";
             return kExitInput;
         }
-    } else if (fs::is_directory(s.output, ec) && !fs::is_empty(s.output, ec)) {
-        std::cerr << "crowdhealth: error: " << s.output.string()
-                  << " is not empty and holds no sweep (no .sweep/arguments); give a new or empty -o OUTDIR\n";
-        return kExitInput;
+        try {
+            fs::create_directories(recordsDir);
+            if (!fs::exists(state / "arguments")) ch::writeFileAtomic(state / "arguments", arguments);
+        } catch (const std::exception& e) {
+            std::cerr << "crowdhealth: error: cannot write to " << s.output.string() << ": " << e.what() << "\n";
+            return kExitRuntime;
+        }
+        return kExitOk;
+    }();
+    const int agreed = pool.agree(checked);
+    if (agreed != kExitOk) {
+        if (checked == kExitOk && pool.controller())
+            std::cerr << "crowdhealth: error: another MPI rank could not load the scenario or check the arguments "
+                         "(is "
+                      << s.input << " readable on every host?)\n";
+        return agreed;
     }
-    try {
-        fs::create_directories(recordsDir);
-        if (!fs::exists(state / "arguments")) ch::writeFileAtomic(state / "arguments", arguments);
-    } catch (const std::exception& e) {
-        std::cerr << "crowdhealth: error: cannot write to " << s.output.string() << ": " << e.what() << "\n";
-        return kExitRuntime;
+    // Ctrl-C / SIGTERM on every rank: a run going stops at its next step (reported as interrupted).
+    installInterruptHandlers();
+    if (!pool.controller()) {
+        pool.serve();
+        return pool.exitStatus();
     }
 
     // ---- (d) what is done already ----
     // A record being written when the sweep was killed is a NAME.tmp: never read, removed here.
+    std::error_code ec;
     for (const auto& e : fs::directory_iterator(recordsDir, ec))
         if (e.path().extension() == ".tmp") fs::remove(e.path(), ec);
-    const std::size_t total = runs.size();
     std::vector<std::optional<SweepResult>> results(total);
     std::vector<std::size_t> todo;
     for (const SweepRun& run : runs) {
@@ -780,94 +877,52 @@ int sweepCommand(int argc, char* argv[]) {
     }
     const std::size_t already = total - todo.size();
 
-    // ---- (b) the runs to do, handed out one at a time to the workers ----
-    const unsigned hardware = std::max(1u, std::thread::hardware_concurrency());
-    const std::size_t workers = std::min(todo.size(), s.jobs > 0 ? s.jobs : static_cast<std::size_t>(hardware));
-    std::mutex mutex;
-    std::condition_variable wake;
-    std::vector<std::string> messages;
-    std::size_t done = 0, going = workers;
+    // ---- (b) the runs to do, on the job pool (threads, or MPI ranks); records written here ----
+    std::vector<std::string> jobs;
+    for (const std::size_t id : todo) jobs.push_back(std::to_string(id));
     bool anyFailed = false;
-    std::atomic<std::size_t> next{0};
-    const std::unique_ptr<std::atomic<double>[]> clocks(new std::atomic<double>[todo.size()]);
-    const std::unique_ptr<std::atomic<int>[]> phase(new std::atomic<int>[todo.size()]);
-    for (std::size_t k = 0; k < todo.size(); ++k) {
-        clocks[k] = 0;
-        phase[k] = 0;
-    }
-    auto worker = [&] {
-        for (;;) {
-            if (interruptRequested()) break;
-            const std::size_t k = next.fetch_add(1);
-            if (k >= todo.size()) break;
-            const SweepRun& run = runs[todo[k]];
-            phase[k] = 1;
-            const std::string name = runName(run.id, total);
-            const fs::path dir = s.keepRuns ? s.output / "runs" / name : state / "work" / name;
-            SweepResult r = executeSweepRun(s, run, dir, &clocks[k]);
-            std::string message;
-            bool recorded = false;
-            if (r.ok) {
-                try {
-                    ch::writeFileAtomic(recordsDir / (name + ".txt"), sweepRecordText(run, r));
-                    recorded = true;
-                } catch (const std::exception& e) {
-                    message = "crowdhealth: error: run " + std::to_string(run.id) + ": cannot write its record: " + e.what();
-                }
-            } else if (r.error != "interrupted") {
-                message = "crowdhealth: error: run " + std::to_string(run.id) + " (seed " + std::to_string(run.seed) +
-                          ") failed: " + r.error;
-            }
-            phase[k] = 2;
-            {
-                const std::lock_guard<std::mutex> lock(mutex);
-                if (r.ok || r.error != "interrupted") results[run.id] = std::move(r);
-                if (!message.empty()) messages.push_back(message);
-                anyFailed = anyFailed || !recorded;
-                ++done;
-            }
-            wake.notify_one();
-        }
-        {
-            const std::lock_guard<std::mutex> lock(mutex);
-            --going;
-        }
-        wake.notify_one();
-    };
-
     ReplicationProgress progress(std::cerr, !s.quiet && ProgressBar::stderrIsTerminal(), todo.size(),
                                  s.endTime ? *s.endTime : first->endTime);
     if (!s.quiet && already > 0)
         std::cerr << "crowdhealth: resuming " << s.output.string() << ": " << plural(already, "run") << " of " << total
                   << " already finished, " << todo.size() << " to run\n";
-    installInterruptHandlers();
-    const auto wallStart = std::chrono::steady_clock::now();
-    std::vector<std::thread> pool;
-    for (std::size_t w = 0; w < workers; ++w) pool.emplace_back(worker);
-    {
-        std::unique_lock<std::mutex> lock(mutex);
-        for (;;) {
-            wake.wait_for(lock, std::chrono::milliseconds(100), [&] { return !messages.empty() || going == 0; });
-            std::vector<std::string> say;
-            say.swap(messages);
-            const std::size_t shown = done;
-            const bool over = going == 0;
-            lock.unlock();
-            if (!say.empty()) progress.clear();
-            for (const std::string& m : say) std::cerr << m << "\n";
-            std::size_t running = 0;
-            double slowest = std::numeric_limits<double>::infinity();
-            for (std::size_t k = 0; k < todo.size(); ++k)
-                if (phase[k].load() == 1) {
-                    ++running;
-                    slowest = std::min(slowest, clocks[k].load(std::memory_order_relaxed));
-                }
-            progress.draw(shown, running, slowest);
-            lock.lock();
-            if (over && messages.empty()) break;
+    const auto finished = [&](std::size_t k, const std::string& text) {
+        const SweepRun& run = runs[todo[k]];
+        SweepResult r = parseSweepResultText(text, run);
+        std::string message;
+        if (r.ok) {
+            try {
+                ch::writeFileAtomic(recordsDir / (runName(run.id, total) + ".txt"), sweepRecordText(run, r));
+            } catch (const std::exception& e) {
+                message = "crowdhealth: error: run " + std::to_string(run.id) + ": cannot write its record: " + e.what();
+                anyFailed = true;
+            }
+        } else if (r.error != "interrupted") {
+            message = "crowdhealth: error: run " + std::to_string(run.id) + " (seed " + std::to_string(run.seed) +
+                      ") failed: " + r.error;
+            anyFailed = true;
         }
-    }
-    for (std::thread& t : pool) t.join();
+        if (r.ok || r.error != "interrupted") results[run.id] = std::move(r);
+        if (!message.empty()) {
+            progress.clear();
+            std::cerr << message << "\n";
+        }
+    };
+    const auto wallStart = std::chrono::steady_clock::now();
+    // Under mpirun rank 0's stderr is a pipe to mpirun, never a terminal: instead of the progress
+    // line, a line of text every minute (it reads well in a batch job's log too).
+    const bool logLines = !s.quiet && pool.distributed() && !ProgressBar::stderrIsTerminal();
+    auto nextLog = std::chrono::steady_clock::now() + std::chrono::minutes(1);
+    const auto tick = [&](const JobPoolState& st) {
+        progress.draw(st.done, st.running, st.slowest);
+        if (logLines && std::chrono::steady_clock::now() >= nextLog) {
+            nextLog += std::chrono::minutes(1);
+            std::cerr << "crowdhealth: sweep: " << st.done << " of " << todo.size() << " runs done, " << st.running
+                      << " running, elapsed " << formatDuration(std::chrono::duration<double>(std::chrono::steady_clock::now() - wallStart).count())
+                      << "\n";
+        }
+    };
+    pool.run(jobs, finished, tick);
     progress.finish();
     const double wallSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - wallStart).count();
     fs::remove_all(state / "work", ec);
@@ -877,6 +932,7 @@ int sweepCommand(int argc, char* argv[]) {
         std::cerr << "crowdhealth: interrupted: " << (total - missing) << " of " << total
                   << " runs finished and recorded in " << recordsDir.string()
                   << "; run the same command again to run the other " << missing << "\n";
+        pool.finish(kExitInterrupted);
         return kExitInterrupted;
     }
 
@@ -886,6 +942,7 @@ int sweepCommand(int argc, char* argv[]) {
         ch::writeFileAtomic(s.output / "sweep-summary.csv", sweepSummaryCsv(s.axes, runs, results));
     } catch (const std::exception& e) {
         std::cerr << "crowdhealth: error: cannot write the outputs: " << e.what() << "\n";
+        pool.finish(kExitRuntime);
         return kExitRuntime;
     }
     bool plotted = false;
@@ -901,13 +958,17 @@ int sweepCommand(int argc, char* argv[]) {
         std::cout << "crowdhealth sweep: " << s.input << ", " << plural(combinations, "combination") << " x "
                   << plural(s.replications, "seed") << " = " << plural(total, "run") << " (" << already
                   << " already done, " << todo.size() << " run now in " << formatDuration(wallSeconds) << ", at most "
-                  << workers << " at a time)";
+                  << std::min(todo.size(), pool.workers()) << " at a time";
+        if (pool.distributed()) std::cout << " on " << plural(pool.workers(), "MPI worker rank");
+        std::cout << ")";
         if (failed > 0) std::cout << ", " << failed << " failed";
         std::cout << "\n  output  " << (s.output / "sweep.csv").string() << ", " << (s.output / "sweep-summary.csv").string();
         if (plotted) std::cout << ", " << (s.output / "sweep-*.png").string();
         std::cout << "\n";
     }
-    return (failed > 0 || anyFailed) ? kExitRuntime : kExitOk;
+    const int status = (failed > 0 || anyFailed) ? kExitRuntime : kExitOk;
+    pool.finish(status);
+    return status;
 }
 
 }  // namespace chcli

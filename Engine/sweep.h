@@ -1,14 +1,15 @@
 // crowdhealth sweep — a parameter study: the Cartesian product of --vary values × N seeds, run on
-// the cores of this machine (docs/sweeps.md).
+// the cores of this machine or, under mpirun/srun, on MPI ranks (docs/sweeps.md).
 //
-// The work is cut in four pieces so that a distributed layer (MPI: rank 0 hands out run ids,
-// the ranks send back result records) can replace the local thread pool alone:
+// The work is cut in four pieces; the runs go through the JobPool (job_pool.h: local threads or
+// MPI ranks), a job being a run id and its result the record text (d):
 //  (a) expandSweep: the ordered list of runs with stable ids (first --vary slowest, seed fastest);
-//  (b) executeSweepRun: one run id → one SweepResult (single-threaded, deterministic);
+//  (b) executeSweepRun: one run id → one SweepResult (single-threaded, deterministic), on
+//      whichever thread or rank the pool gives it to;
 //  (c) sweepCsv / sweepSummaryCsv: the outputs from the results in run-id order (never in
-//      completion order);
-//  (d) records: one small file per finished run (OUTDIR/.sweep/runs/), written atomically, from
-//      which a second call with the same arguments resumes.
+//      completion order), written by the controller (rank 0) only;
+//  (d) records: one small file per finished run (OUTDIR/.sweep/runs/), written atomically by the
+//      controller as results arrive, from which a second call with the same arguments resumes.
 #pragma once
 
 #include <crowdhealth/core/scenario.h>

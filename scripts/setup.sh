@@ -17,7 +17,10 @@ PACKAGES=(g++ cmake make pkg-config libtinyxml2-dev libeigen3-dev libboost-progr
           # the Python module crowdhealth in build/python, its tests and examples (docs/python.md)
           pybind11-dev python3-dev python3-numpy python3-pytest python3-matplotlib python3-setuptools python3-wheel
           # the C API's install test (docs/c-api.md): gcc comes with g++, pkg-config is above; readelf
-          binutils)
+          binutils
+          # `mpirun -n K crowdhealth sweep`: the runs of a study on MPI ranks, on one host or a cluster
+          # (OpenMPI, the MPI clusters already run; CMake option CROWDHEALTH_MPI; docs/sweeps.md)
+          libopenmpi-dev openmpi-bin)
 
 # EXTRA_PACKAGES: more packages for a caller (scripts/fuzz.sh: clang, libFuzzer, …).
 read -r -a extra <<< "${EXTRA_PACKAGES:-}"
