@@ -556,6 +556,16 @@ int calibrateCommand(int argc, char* argv[]) {
     NullBuffer nullBuffer;
     std::ostream nullStream(&nullBuffer);
     std::ostream& err = pool.controller() ? std::cerr : nullStream;
+    // Every rank calls agree() exactly once after its checks (job_pool.h): a rank that returns
+    // early does it here, on the way out, so that the others learn it failed instead of waiting.
+    struct AgreeOnReturn {
+        JobPool& pool;
+        bool agreed = false;
+        int status = kExitInput;
+        ~AgreeOnReturn() {
+            if (!agreed) pool.agree(status);
+        }
+    } agreement{pool};
     auto usage = [&](const std::string& message) {
         err << "crowdhealth: error: " << message << "\nTry 'crowdhealth calibrate --help' for more information.\n";
         return kExitInput;
@@ -750,341 +760,354 @@ int calibrateCommand(int argc, char* argv[]) {
     }
     setup = std::make_shared<const CalibrationSetup>(s);
 
-    // ---- workers (MPI ranks other than the controller) run jobs until the study is over ----
-    if (!pool.controller()) {
-        pool.serve();
-        return kExitOk;
-    }
-
-    // ---- OUTDIR ----
-    {
+    // ---- OUTDIR (the controller's alone) ----
+    if (pool.controller()) {
         std::error_code ec;
         fs::create_directories(output, ec);
         if (ec || !fs::is_directory(output)) {
             std::cerr << "crowdhealth: error: cannot create the output folder " << output.string() << ": " << ec.message() << "\n";
+            agreement.status = kExitRuntime;
             return kExitRuntime;
         }
     }
+    agreement.agreed = true;
+    if (const int status = pool.agree(kExitOk); status != kExitOk) {
+        if (pool.controller() && status != kExitOk)
+            std::cerr << "crowdhealth: error: another MPI rank could not load the scenario or the data (a file missing or "
+                         "unreadable on its host?); nothing was run\n";
+        return status;
+    }
 
-    // ---- the search ----
-    const std::size_t p = s.fits.size(), conditions = data->conditions.size();
-    std::vector<Evaluation> evaluations;
-    const bool drawProgress = !quiet;
-    const bool terminal = ProgressBar::stderrIsTerminal();
-    const auto wallStart = std::chrono::steady_clock::now();
-    std::size_t best = std::numeric_limits<std::size_t>::max();
-    auto describe = [&](const std::vector<double>& v) {
-        std::string t;
-        for (std::size_t k = 0; k < p; ++k) t += (k ? " " : "") + s.fits[k].target + "=" + cell(v[k]);
-        return t;
-    };
-    auto progressLine = [&](std::size_t done, std::size_t total) {
-        std::string t = "calibrate: evaluation " + std::to_string(evaluations.size()) + ", runs " + std::to_string(done) +
-                        "/" + std::to_string(total);
-        if (best < evaluations.size())
-            t += " | best " + cell(evaluations[best].objective) + " at " + describe(evaluations[best].values);
-        t += " | " + formatDuration(std::chrono::duration<double>(std::chrono::steady_clock::now() - wallStart).count());
-        return t;
-    };
-    installInterruptHandlers();
-    // One batch: every point × condition × seed, run as one set of jobs.
-    auto evaluateBatch = [&](const std::vector<std::vector<double>>& points, const std::string& step) -> std::optional<std::vector<double>> {
-        std::vector<std::string> jobs;
-        for (const std::vector<double>& x : points)
-            for (std::size_t c = 0; c < conditions; ++c)
-                for (std::size_t k = 0; k < seeds; ++k) {
-                    std::string j = std::to_string(c) + " " + std::to_string(firstSeed + k);
-                    for (const double v : x) j += " " + exact(v);
-                    jobs.push_back(std::move(j));
-                }
-        std::vector<std::string> results(jobs.size());
-        const bool complete = pool.run(
-            jobs, [&](std::size_t index, const std::string& r) { results[index] = r; },
-            [&](const JobPoolState& st) {
-                if (drawProgress && terminal) std::cerr << "\r\033[K" << progressLine(st.done, jobs.size()) << std::flush;
-            });
-        if (!complete || interruptRequested()) return std::nullopt;
-        std::vector<double> values;
-        for (std::size_t q = 0; q < points.size(); ++q) {
-            Evaluation e;
-            e.values = points[q];
-            e.step = step;
-            e.mean.assign(conditions, std::nan(""));
-            e.sd.assign(conditions, std::nan(""));
-            for (std::size_t c = 0; c < conditions && e.error.empty(); ++c) {
-                std::vector<double> xs;
-                for (std::size_t k = 0; k < seeds; ++k) {
-                    const std::string& r = results[(q * conditions + c) * seeds + k];
-                    double v = 0;
-                    if (r.rfind("ok ", 0) != 0 || !parseDouble(r.substr(3), v)) {
-                        e.error = "seed " + std::to_string(firstSeed + k) + ", " + data->variables[0] + " = " +
-                                  shortest(data->conditions[c][0]) + ": " + (r.rfind("failed ", 0) == 0 ? r.substr(7) : r);
-                        break;
+    // ---- workers (MPI ranks other than the controller) run jobs until the study is over ----
+    if (!pool.controller()) {
+        pool.serve();
+        return pool.exitStatus();
+    }
+    // ---- the controller: the search, the errors, the outputs ----
+    const int status = [&]() -> int {
+
+        // ---- the search ----
+        const std::size_t p = s.fits.size(), conditions = data->conditions.size();
+        std::vector<Evaluation> evaluations;
+        const bool drawProgress = !quiet;
+        const bool terminal = ProgressBar::stderrIsTerminal();
+        const auto wallStart = std::chrono::steady_clock::now();
+        std::size_t best = std::numeric_limits<std::size_t>::max();
+        auto describe = [&](const std::vector<double>& v) {
+            std::string t;
+            for (std::size_t k = 0; k < p; ++k) t += (k ? " " : "") + s.fits[k].target + "=" + cell(v[k]);
+            return t;
+        };
+        auto progressLine = [&](std::size_t done, std::size_t total) {
+            std::string t = "calibrate: evaluation " + std::to_string(evaluations.size()) + ", runs " + std::to_string(done) +
+                            "/" + std::to_string(total);
+            if (best < evaluations.size())
+                t += " | best " + cell(evaluations[best].objective) + " at " + describe(evaluations[best].values);
+            t += " | " + formatDuration(std::chrono::duration<double>(std::chrono::steady_clock::now() - wallStart).count());
+            return t;
+        };
+        installInterruptHandlers();
+        // One batch: every point × condition × seed, run as one set of jobs.
+        auto evaluateBatch = [&](const std::vector<std::vector<double>>& points, const std::string& step) -> std::optional<std::vector<double>> {
+            std::vector<std::string> jobs;
+            for (const std::vector<double>& x : points)
+                for (std::size_t c = 0; c < conditions; ++c)
+                    for (std::size_t k = 0; k < seeds; ++k) {
+                        std::string j = std::to_string(c) + " " + std::to_string(firstSeed + k);
+                        for (const double v : x) j += " " + exact(v);
+                        jobs.push_back(std::move(j));
                     }
-                    xs.push_back(v);
+            std::vector<std::string> results(jobs.size());
+            const bool complete = pool.run(
+                jobs, [&](std::size_t index, const std::string& r) { results[index] = r; },
+                [&](const JobPoolState& st) {
+                    if (drawProgress && terminal) std::cerr << "\r\033[K" << progressLine(st.done, jobs.size()) << std::flush;
+                });
+            if (!complete || interruptRequested()) return std::nullopt;
+            std::vector<double> values;
+            for (std::size_t q = 0; q < points.size(); ++q) {
+                Evaluation e;
+                e.values = points[q];
+                e.step = step;
+                e.mean.assign(conditions, std::nan(""));
+                e.sd.assign(conditions, std::nan(""));
+                for (std::size_t c = 0; c < conditions && e.error.empty(); ++c) {
+                    std::vector<double> xs;
+                    for (std::size_t k = 0; k < seeds; ++k) {
+                        const std::string& r = results[(q * conditions + c) * seeds + k];
+                        double v = 0;
+                        if (r.rfind("ok ", 0) != 0 || !parseDouble(r.substr(3), v)) {
+                            e.error = "seed " + std::to_string(firstSeed + k) + ", " + data->variables[0] + " = " +
+                                      shortest(data->conditions[c][0]) + ": " + (r.rfind("failed ", 0) == 0 ? r.substr(7) : r);
+                            break;
+                        }
+                        xs.push_back(v);
+                    }
+                    if (!e.error.empty()) break;
+                    double sum = 0;
+                    for (const double v : xs) sum += v;
+                    e.mean[c] = sum / static_cast<double>(xs.size());
+                    double ss = 0;
+                    for (const double v : xs) ss += (v - e.mean[c]) * (v - e.mean[c]);
+                    e.sd[c] = xs.size() > 1 ? std::sqrt(ss / static_cast<double>(xs.size() - 1)) : 0.0;
                 }
-                if (!e.error.empty()) break;
-                double sum = 0;
-                for (const double v : xs) sum += v;
-                e.mean[c] = sum / static_cast<double>(xs.size());
-                double ss = 0;
-                for (const double v : xs) ss += (v - e.mean[c]) * (v - e.mean[c]);
-                e.sd[c] = xs.size() > 1 ? std::sqrt(ss / static_cast<double>(xs.size() - 1)) : 0.0;
+                if (e.error.empty()) e.objective = objectiveOf(*data, e.mean, relative);
+                values.push_back(e.objective);
+                if (step != "jacobian" && (best >= evaluations.size() || e.objective < evaluations[best].objective))
+                    if (std::isfinite(e.objective)) best = evaluations.size();
+                evaluations.push_back(std::move(e));
+                if (drawProgress && !terminal) std::cerr << progressLine(jobs.size(), jobs.size()) << "\n";
             }
-            if (e.error.empty()) e.objective = objectiveOf(*data, e.mean, relative);
-            values.push_back(e.objective);
-            if (step != "jacobian" && (best >= evaluations.size() || e.objective < evaluations[best].objective))
-                if (std::isfinite(e.objective)) best = evaluations.size();
-            evaluations.push_back(std::move(e));
-            if (drawProgress && !terminal) std::cerr << progressLine(jobs.size(), jobs.size()) << "\n";
-        }
-        if (drawProgress && terminal) std::cerr << "\r\033[K" << progressLine(jobs.size(), jobs.size()) << std::flush;
-        return values;
-    };
+            if (drawProgress && terminal) std::cerr << "\r\033[K" << progressLine(jobs.size(), jobs.size()) << std::flush;
+            return values;
+        };
 
-    BoxSearchOptions search;
-    for (const FitParameter& f : s.fits) {
-        search.lo.push_back(f.lo);
-        search.hi.push_back(f.hi);
-    }
-    search.tolerance = tolerance;
-    search.maxEvaluations = maxEvaluations;
-    const BoxSearchResult found = nelderMeadInBox(evaluateBatch, search);
-    const std::size_t searchEvaluations = evaluations.size();
-    if (drawProgress && terminal) std::cerr << "\n";
-    if (found.interrupted || interruptRequested()) {
-        std::cerr << "crowdhealth: interrupted after " << plural(evaluations.size(), "evaluation")
-                  << "; nothing was written (a calibration does not resume)\n";
-        return kExitInterrupted;
-    }
-    for (const Evaluation& e : evaluations)
-        if (!e.error.empty()) {
-            std::cerr << "crowdhealth: warning: evaluation at " << describe(e.values) << " failed: " << e.error << "\n";
-            break;
+        BoxSearchOptions search;
+        for (const FitParameter& f : s.fits) {
+            search.lo.push_back(f.lo);
+            search.hi.push_back(f.hi);
         }
-    if (best >= evaluations.size()) {
-        std::cerr << "crowdhealth: error: every evaluation failed (see the warning above); nothing was fitted\n";
-        return kExitRuntime;
-    }
-    const Evaluation fitted = evaluations[best];
-
-    // ---- errors: Gauss–Newton from a central-difference Jacobian of the ensemble means ----
-    // J_ij = d residual_i / d theta_j from theta ± h (h = 5 % of the range, kept inside it);
-    // A = J^T W J. Fit error: s^2 A^-1 with s^2 = objective / (rows − p) (the scatter of the data
-    // about the model); seed error: A^-1 J^T W C W J A^-1 with C the variance of the ensemble
-    // means (sd^2 / N, rows of one condition fully correlated).
-    std::vector<double> seFit(p, std::nan("")), seSeeds(p, std::nan(""));
-    std::string errorNote;
-    {
-        std::vector<std::vector<double>> points;
-        for (std::size_t j = 0; j < p; ++j) {
-            const double h = 0.05 * (s.fits[j].hi - s.fits[j].lo);
-            std::vector<double> a = fitted.values, b = fitted.values;
-            a[j] = std::max(s.fits[j].lo, a[j] - h);
-            b[j] = std::min(s.fits[j].hi, b[j] + h);
-            points.push_back(a);
-            points.push_back(b);
-        }
-        const std::optional<std::vector<double>> v = evaluateBatch(points, "jacobian");
+        search.tolerance = tolerance;
+        search.maxEvaluations = maxEvaluations;
+        const BoxSearchResult found = nelderMeadInBox(evaluateBatch, search);
+        const std::size_t searchEvaluations = evaluations.size();
         if (drawProgress && terminal) std::cerr << "\n";
-        if (!v) {
-            std::cerr << "crowdhealth: interrupted; nothing was written (a calibration does not resume)\n";
+        if (found.interrupted || interruptRequested()) {
+            std::cerr << "crowdhealth: interrupted after " << plural(evaluations.size(), "evaluation")
+                      << "; nothing was written (a calibration does not resume)\n";
             return kExitInterrupted;
         }
-        const std::size_t n = data->rows.size();
-        bool ok = true;
-        std::vector<std::vector<double>> J(n, std::vector<double>(p, 0.0));
-        for (std::size_t j = 0; j < p && ok; ++j) {
-            // Central where both sides ran; one-sided (with the optimum itself) where one failed.
-            const Evaluation* lo = &evaluations[searchEvaluations + 2 * j];
-            const Evaluation* hi = &evaluations[searchEvaluations + 2 * j + 1];
-            if (!lo->error.empty() && !hi->error.empty()) {
-                ok = false;
-                errorNote = "the runs on both sides of the optimum failed for " + s.fits[j].target;
+        for (const Evaluation& e : evaluations)
+            if (!e.error.empty()) {
+                std::cerr << "crowdhealth: warning: evaluation at " << describe(e.values) << " failed: " << e.error << "\n";
                 break;
             }
-            if (!lo->error.empty()) lo = &fitted;
-            if (!hi->error.empty()) hi = &fitted;
-            const double dx = hi->values[j] - lo->values[j];
-            if (!(dx > 0)) {
-                ok = false;
-                errorNote = "no step around the optimum for " + s.fits[j].target;
-                break;
-            }
-            if (lo == &fitted || hi == &fitted)
-                errorNote = "one-sided differences for " + s.fits[j].target + " (the runs on one side failed)";
-            for (std::size_t i = 0; i < n; ++i) {
-                const CalibrationData::Row& r = data->rows[i];
-                const double scale = relative ? r.y : 1.0;
-                J[i][j] = (hi->mean[r.condition] - lo->mean[r.condition]) / dx / scale;
-            }
+        if (best >= evaluations.size()) {
+            std::cerr << "crowdhealth: error: every evaluation failed (see the warning above); nothing was fitted\n";
+            return kExitRuntime;
         }
-        std::vector<std::vector<double>> A(p, std::vector<double>(p, 0.0));
-        if (ok) {
-            for (std::size_t a = 0; a < p; ++a)
-                for (std::size_t b = 0; b < p; ++b)
-                    for (std::size_t i = 0; i < n; ++i) A[a][b] += data->rows[i].weight * J[i][a] * J[i][b];
-            if (!invert(A)) {
-                ok = false;
-                errorNote = "the model does not change with the parameters near the optimum (singular J^T W J)";
-            }
-        }
-        if (ok) {
-            if (n > p) {
-                const double s2 = fitted.objective / static_cast<double>(n - p);
-                for (std::size_t j = 0; j < p; ++j) seFit[j] = std::sqrt(std::max(0.0, s2 * A[j][j]));
-            } else {
-                errorNote = "no more data rows than parameters: no fit error";
-            }
-            // G = A^-1 J^T W (p × n); cov = G C G^T with C_ik = var(mean of condition) when rows i, k share it.
-            std::vector<std::vector<double>> G(p, std::vector<double>(n, 0.0));
-            for (std::size_t a = 0; a < p; ++a)
-                for (std::size_t i = 0; i < n; ++i)
-                    for (std::size_t b = 0; b < p; ++b) G[a][i] += A[a][b] * J[i][b] * data->rows[i].weight;
+        const Evaluation fitted = evaluations[best];
+
+        // ---- errors: Gauss–Newton from a central-difference Jacobian of the ensemble means ----
+        // J_ij = d residual_i / d theta_j from theta ± h (h = 5 % of the range, kept inside it);
+        // A = J^T W J. Fit error: s^2 A^-1 with s^2 = objective / (rows − p) (the scatter of the data
+        // about the model); seed error: A^-1 J^T W C W J A^-1 with C the variance of the ensemble
+        // means (sd^2 / N, rows of one condition fully correlated).
+        std::vector<double> seFit(p, std::nan("")), seSeeds(p, std::nan(""));
+        std::string errorNote;
+        {
+            std::vector<std::vector<double>> points;
             for (std::size_t j = 0; j < p; ++j) {
-                double var = 0;
-                for (std::size_t i = 0; i < n; ++i)
-                    for (std::size_t k = 0; k < n; ++k) {
-                        const CalibrationData::Row &ri = data->rows[i], &rk = data->rows[k];
-                        if (ri.condition != rk.condition) continue;
-                        const double sd = fitted.sd[ri.condition];
-                        const double c = sd * sd / static_cast<double>(seeds) / (relative ? ri.y * rk.y : 1.0);
-                        var += G[j][i] * c * G[j][k];
-                    }
-                seSeeds[j] = std::sqrt(std::max(0.0, var));
+                const double h = 0.05 * (s.fits[j].hi - s.fits[j].lo);
+                std::vector<double> a = fitted.values, b = fitted.values;
+                a[j] = std::max(s.fits[j].lo, a[j] - h);
+                b[j] = std::min(s.fits[j].hi, b[j] + h);
+                points.push_back(a);
+                points.push_back(b);
+            }
+            const std::optional<std::vector<double>> v = evaluateBatch(points, "jacobian");
+            if (drawProgress && terminal) std::cerr << "\n";
+            if (!v) {
+                std::cerr << "crowdhealth: interrupted; nothing was written (a calibration does not resume)\n";
+                return kExitInterrupted;
+            }
+            const std::size_t n = data->rows.size();
+            bool ok = true;
+            std::vector<std::vector<double>> J(n, std::vector<double>(p, 0.0));
+            for (std::size_t j = 0; j < p && ok; ++j) {
+                // Central where both sides ran; one-sided (with the optimum itself) where one failed.
+                const Evaluation* lo = &evaluations[searchEvaluations + 2 * j];
+                const Evaluation* hi = &evaluations[searchEvaluations + 2 * j + 1];
+                if (!lo->error.empty() && !hi->error.empty()) {
+                    ok = false;
+                    errorNote = "the runs on both sides of the optimum failed for " + s.fits[j].target;
+                    break;
+                }
+                if (!lo->error.empty()) lo = &fitted;
+                if (!hi->error.empty()) hi = &fitted;
+                const double dx = hi->values[j] - lo->values[j];
+                if (!(dx > 0)) {
+                    ok = false;
+                    errorNote = "no step around the optimum for " + s.fits[j].target;
+                    break;
+                }
+                if (lo == &fitted || hi == &fitted)
+                    errorNote = "one-sided differences for " + s.fits[j].target + " (the runs on one side failed)";
+                for (std::size_t i = 0; i < n; ++i) {
+                    const CalibrationData::Row& r = data->rows[i];
+                    const double scale = relative ? r.y : 1.0;
+                    J[i][j] = (hi->mean[r.condition] - lo->mean[r.condition]) / dx / scale;
+                }
+            }
+            std::vector<std::vector<double>> A(p, std::vector<double>(p, 0.0));
+            if (ok) {
+                for (std::size_t a = 0; a < p; ++a)
+                    for (std::size_t b = 0; b < p; ++b)
+                        for (std::size_t i = 0; i < n; ++i) A[a][b] += data->rows[i].weight * J[i][a] * J[i][b];
+                if (!invert(A)) {
+                    ok = false;
+                    errorNote = "the model does not change with the parameters near the optimum (singular J^T W J)";
+                }
+            }
+            if (ok) {
+                if (n > p) {
+                    const double s2 = fitted.objective / static_cast<double>(n - p);
+                    for (std::size_t j = 0; j < p; ++j) seFit[j] = std::sqrt(std::max(0.0, s2 * A[j][j]));
+                } else {
+                    errorNote = "no more data rows than parameters: no fit error";
+                }
+                // G = A^-1 J^T W (p × n); cov = G C G^T with C_ik = var(mean of condition) when rows i, k share it.
+                std::vector<std::vector<double>> G(p, std::vector<double>(n, 0.0));
+                for (std::size_t a = 0; a < p; ++a)
+                    for (std::size_t i = 0; i < n; ++i)
+                        for (std::size_t b = 0; b < p; ++b) G[a][i] += A[a][b] * J[i][b] * data->rows[i].weight;
+                for (std::size_t j = 0; j < p; ++j) {
+                    double var = 0;
+                    for (std::size_t i = 0; i < n; ++i)
+                        for (std::size_t k = 0; k < n; ++k) {
+                            const CalibrationData::Row &ri = data->rows[i], &rk = data->rows[k];
+                            if (ri.condition != rk.condition) continue;
+                            const double sd = fitted.sd[ri.condition];
+                            const double c = sd * sd / static_cast<double>(seeds) / (relative ? ri.y * rk.y : 1.0);
+                            var += G[j][i] * c * G[j][k];
+                        }
+                    seSeeds[j] = std::sqrt(std::max(0.0, var));
+                }
             }
         }
-    }
-    const double wallSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - wallStart).count();
+        const double wallSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - wallStart).count();
 
-    // ---- outputs ----
-    std::string csv = "evaluation,step";
-    for (const FitParameter& f : s.fits) csv += "," + f.target;
-    csv += ",objective,status\n";
-    for (std::size_t k = 0; k < evaluations.size(); ++k) {
-        const Evaluation& e = evaluations[k];
-        csv += std::to_string(k) + "," + e.step;
-        for (const double v : e.values) csv += "," + cell(v);
-        csv += "," + cell(e.objective) + "," + (e.error.empty() ? "ok" : "failed") + "\n";
-    }
-    double weightSum = 0;
-    for (const CalibrationData::Row& r : data->rows) weightSum += r.weight;
-    ch::Json j = ch::Json::object();
-    j["scenario"] = s.input;
-    j["data"] = dataPath;
-    j["observable"] = data->observableName;
-    j["residuals"] = relative ? "relative" : "absolute";
-    j["seeds"] = seeds;
-    j["first_seed"] = firstSeed;
-    j["evaluations"] = searchEvaluations;
-    j["converged"] = found.converged;
-    j["tolerance"] = ch::jsonNumber(tolerance);
-    j["objective"] = ch::jsonNumber(fitted.objective);
-    j["rms_residual"] = ch::jsonNumber(std::sqrt(fitted.objective / weightSum));
-    j["error_method"] =
-        "Gauss-Newton: J = d(model mean)/d(parameter) by central differences (5% of the range) at the optimum; "
-        "standard_error = sqrt(diag(s^2 (J^T W J)^-1)), s^2 = objective / (data rows - parameters): the scatter of the "
-        "data about the fitted model; seed_error: the part of it due to the finite ensemble (sd^2 / seeds of each "
-        "model mean, propagated through the same matrices)";
-    if (!errorNote.empty()) j["error_note"] = errorNote;
-    j["parameters"] = ch::Json::array();
-    for (std::size_t k = 0; k < p; ++k) {
-        ch::Json q = ch::Json::object();
-        q["target"] = s.fits[k].target;
-        q["lo"] = ch::jsonNumber(s.fits[k].lo);
-        q["hi"] = ch::jsonNumber(s.fits[k].hi);
-        q["value"] = ch::jsonNumber(fitted.values[k], 17);
-        q["standard_error"] = ch::jsonNumber(seFit[k]);
-        q["seed_error"] = ch::jsonNumber(seSeeds[k]);
-        const double margin = tolerance * (s.fits[k].hi - s.fits[k].lo);  // within the search's resolution
-        q["at_bound"] = fitted.values[k] - s.fits[k].lo < margin || s.fits[k].hi - fitted.values[k] < margin;
-        j["parameters"].push_back(q);
-    }
-    j["points"] = ch::Json::array();
-    for (std::size_t c = 0; c < conditions; ++c) {
-        ch::Json q = ch::Json::object();
-        for (std::size_t k = 0; k < data->variables.size(); ++k) q[data->variables[k]] = ch::jsonNumber(data->conditions[c][k]);
-        q["model_mean"] = ch::jsonNumber(fitted.mean[c]);
-        q["model_sd"] = ch::jsonNumber(fitted.sd[c]);
-        q["runs"] = seeds;
-        q["data"] = ch::Json::array();
-        for (const CalibrationData::Row& r : data->rows)
-            if (r.condition == c) q["data"].push_back(ch::jsonNumber(r.y));
-        j["points"].push_back(q);
-    }
-    try {
-        ch::writeFileAtomic(output / "calibration.csv", csv);
-        ch::writeFileAtomic(output / "calibration-result.json", ch::jsonText(j));
-    } catch (const std::exception& e) {
-        std::cerr << "crowdhealth: error: cannot write the outputs: " << e.what() << "\n";
-        return kExitRuntime;
-    }
-
-    // ---- the plot: the fitted model (mean ± sd per condition) against the data ----
-    bool plotted = false;
-    if (chplot::findGnuplot()) {
-        chplot::GnuplotJob job;
-        std::string title = "fitted: ";
+        // ---- outputs ----
+        std::string csv = "evaluation,step";
+        for (const FitParameter& f : s.fits) csv += "," + f.target;
+        csv += ",objective,status\n";
+        for (std::size_t k = 0; k < evaluations.size(); ++k) {
+            const Evaluation& e = evaluations[k];
+            csv += std::to_string(k) + "," + e.step;
+            for (const double v : e.values) csv += "," + cell(v);
+            csv += "," + cell(e.objective) + "," + (e.error.empty() ? "ok" : "failed") + "\n";
+        }
+        double weightSum = 0;
+        for (const CalibrationData::Row& r : data->rows) weightSum += r.weight;
+        ch::Json j = ch::Json::object();
+        j["scenario"] = s.input;
+        j["data"] = dataPath;
+        j["observable"] = data->observableName;
+        j["residuals"] = relative ? "relative" : "absolute";
+        j["seeds"] = seeds;
+        j["first_seed"] = firstSeed;
+        j["evaluations"] = searchEvaluations;
+        j["converged"] = found.converged;
+        j["tolerance"] = ch::jsonNumber(tolerance);
+        j["objective"] = ch::jsonNumber(fitted.objective);
+        j["rms_residual"] = ch::jsonNumber(std::sqrt(fitted.objective / weightSum));
+        j["error_method"] =
+            "Gauss-Newton: J = d(model mean)/d(parameter) by central differences (5% of the range) at the optimum; "
+            "standard_error = sqrt(diag(s^2 (J^T W J)^-1)), s^2 = objective / (data rows - parameters): the scatter of the "
+            "data about the fitted model; seed_error: the part of it due to the finite ensemble (sd^2 / seeds of each "
+            "model mean, propagated through the same matrices)";
+        if (!errorNote.empty()) j["error_note"] = errorNote;
+        j["parameters"] = ch::Json::array();
         for (std::size_t k = 0; k < p; ++k) {
-            char v[32];
-            std::snprintf(v, sizeof v, "%.4g", fitted.values[k]);
-            title += (k ? ", " : "") + s.fits[k].target + " = " + v;
-            if (std::isfinite(seFit[k])) {
-                char b[32];
-                std::snprintf(b, sizeof b, "%.2g", seFit[k]);
-                title += std::string(" +/- ") + b;
-            }
+            ch::Json q = ch::Json::object();
+            q["target"] = s.fits[k].target;
+            q["lo"] = ch::jsonNumber(s.fits[k].lo);
+            q["hi"] = ch::jsonNumber(s.fits[k].hi);
+            q["value"] = ch::jsonNumber(fitted.values[k], 17);
+            q["standard_error"] = ch::jsonNumber(seFit[k]);
+            q["seed_error"] = ch::jsonNumber(seSeeds[k]);
+            const double margin = tolerance * (s.fits[k].hi - s.fits[k].lo);  // within the search's resolution
+            q["at_bound"] = fitted.values[k] - s.fits[k].lo < margin || s.fits[k].hi - fitted.values[k] < margin;
+            j["parameters"].push_back(q);
         }
-        const std::string& xname = data->variables[0];
-        const std::string ylabel = data->observableName == "flow"    ? "flow (persons/s)"
-                                   : data->observableName == "speed" ? "speed (m/s)"
-                                                                     : "evacuation time (s)";
-        job.cmd("set title " + chplot::gpString(title) + " noenhanced font ',13'");
-        job.cmd("set grid");
-        job.cmd("set key top left noenhanced");
-        job.cmd("set xlabel " + chplot::gpString(xname) + " noenhanced");
-        job.cmd("set ylabel " + chplot::gpString(ylabel) + " noenhanced");
-        job.cmd("set offsets graph 0.05, graph 0.05, graph 0.05, graph 0.05");
-        chplot::Rows model, points;
-        std::vector<std::size_t> order(conditions);
-        for (std::size_t c = 0; c < conditions; ++c) order[c] = c;
-        std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return data->conditions[a] < data->conditions[b]; });
-        for (const std::size_t c : order)
-            model.push_back({data->conditions[c][0], fitted.mean[c], fitted.mean[c] - fitted.sd[c], fitted.mean[c] + fitted.sd[c]});
-        for (const CalibrationData::Row& r : data->rows) points.push_back({r.x[0], r.y});
-        job.cmd("plot '-' using 1:2:3:4 with yerrorlines lw 2 pt 7 lc rgb '#1f77b4' title " +
-                chplot::gpString("model (" + fs::path(s.input).filename().string() + "), fitted: mean +/- sd of " +
-                                 std::to_string(seeds) + " seeds") +
-                ", '-' using 1:2 with points pt 9 ps 1.6 lc rgb '#d62728' title " +
-                chplot::gpString("data (" + fs::path(dataPath).filename().string() + ")"));
-        job.data(std::move(model));
-        job.data(std::move(points));
-        const std::string e = chplot::drawPng(job, chplot::pngTerminal(1000, 700), output / "calibration.png");
-        if (!e.empty()) std::cerr << "crowdhealth: warning: plot calibration.png: " << e << "\n";
-        plotted = e.empty();
-    } else {
-        std::cerr << "crowdhealth: warning: " << chplot::missingGnuplotMessage("the calibration plot") << "\n";
-    }
+        j["points"] = ch::Json::array();
+        for (std::size_t c = 0; c < conditions; ++c) {
+            ch::Json q = ch::Json::object();
+            for (std::size_t k = 0; k < data->variables.size(); ++k) q[data->variables[k]] = ch::jsonNumber(data->conditions[c][k]);
+            q["model_mean"] = ch::jsonNumber(fitted.mean[c]);
+            q["model_sd"] = ch::jsonNumber(fitted.sd[c]);
+            q["runs"] = seeds;
+            q["data"] = ch::Json::array();
+            for (const CalibrationData::Row& r : data->rows)
+                if (r.condition == c) q["data"].push_back(ch::jsonNumber(r.y));
+            j["points"].push_back(q);
+        }
+        try {
+            ch::writeFileAtomic(output / "calibration.csv", csv);
+            ch::writeFileAtomic(output / "calibration-result.json", ch::jsonText(j));
+        } catch (const std::exception& e) {
+            std::cerr << "crowdhealth: error: cannot write the outputs: " << e.what() << "\n";
+            return kExitRuntime;
+        }
 
-    if (!quiet) {
-        std::cout << "crowdhealth calibrate: " << s.input << " against " << dataPath << " (" << data->observableName << ", "
-                  << plural(data->rows.size(), "data row") << " at " << plural(conditions, "condition") << "), "
-                  << plural(seeds, "seed") << " per evaluation: " << plural(searchEvaluations, "evaluation") << " ("
-                  << (found.converged ? "converged" : "stopped at --max-evaluations") << ") + " << 2 * p
-                  << " for the errors, " << evaluations.size() * conditions * seeds << " runs in "
-                  << formatDuration(wallSeconds) << "\n";
-        for (std::size_t k = 0; k < p; ++k)
-            std::cout << "  " << s.fits[k].target << " = " << cell(fitted.values[k]) << " +/- "
-                      << (std::isfinite(seFit[k]) ? cell(seFit[k]) : "?") << " (seeds: +/- "
-                      << (std::isfinite(seSeeds[k]) ? cell(seSeeds[k]) : "?") << ")\n";
-        if (!errorNote.empty()) std::cout << "  errors: " << errorNote << "\n";
-        std::cout << "  objective " << cell(fitted.objective) << ", rms residual " << cell(std::sqrt(fitted.objective / weightSum))
-                  << "\n  output  " << (output / "calibration.csv").string() << ", "
-                  << (output / "calibration-result.json").string();
-        if (plotted) std::cout << ", " << (output / "calibration.png").string();
-        std::cout << "\n";
-    }
-    return kExitOk;
+        // ---- the plot: the fitted model (mean ± sd per condition) against the data ----
+        bool plotted = false;
+        if (chplot::findGnuplot()) {
+            chplot::GnuplotJob job;
+            std::string title = "fitted: ";
+            for (std::size_t k = 0; k < p; ++k) {
+                char v[32];
+                std::snprintf(v, sizeof v, "%.4g", fitted.values[k]);
+                title += (k ? ", " : "") + s.fits[k].target + " = " + v;
+                if (std::isfinite(seFit[k])) {
+                    char b[32];
+                    std::snprintf(b, sizeof b, "%.2g", seFit[k]);
+                    title += std::string(" +/- ") + b;
+                }
+            }
+            const std::string& xname = data->variables[0];
+            const std::string ylabel = data->observableName == "flow"    ? "flow (persons/s)"
+                                       : data->observableName == "speed" ? "speed (m/s)"
+                                                                         : "evacuation time (s)";
+            job.cmd("set title " + chplot::gpString(title) + " noenhanced font ',13'");
+            job.cmd("set grid");
+            job.cmd("set key top left noenhanced");
+            job.cmd("set xlabel " + chplot::gpString(xname) + " noenhanced");
+            job.cmd("set ylabel " + chplot::gpString(ylabel) + " noenhanced");
+            job.cmd("set offsets graph 0.05, graph 0.05, graph 0.05, graph 0.05");
+            chplot::Rows model, points;
+            std::vector<std::size_t> order(conditions);
+            for (std::size_t c = 0; c < conditions; ++c) order[c] = c;
+            std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return data->conditions[a] < data->conditions[b]; });
+            for (const std::size_t c : order)
+                model.push_back({data->conditions[c][0], fitted.mean[c], fitted.mean[c] - fitted.sd[c], fitted.mean[c] + fitted.sd[c]});
+            for (const CalibrationData::Row& r : data->rows) points.push_back({r.x[0], r.y});
+            job.cmd("plot '-' using 1:2:3:4 with yerrorlines lw 2 pt 7 lc rgb '#1f77b4' title " +
+                    chplot::gpString("model (" + fs::path(s.input).filename().string() + "), fitted: mean +/- sd of " +
+                                     std::to_string(seeds) + " seeds") +
+                    ", '-' using 1:2 with points pt 9 ps 1.6 lc rgb '#d62728' title " +
+                    chplot::gpString("data (" + fs::path(dataPath).filename().string() + ")"));
+            job.data(std::move(model));
+            job.data(std::move(points));
+            const std::string e = chplot::drawPng(job, chplot::pngTerminal(1000, 700), output / "calibration.png");
+            if (!e.empty()) std::cerr << "crowdhealth: warning: plot calibration.png: " << e << "\n";
+            plotted = e.empty();
+        } else {
+            std::cerr << "crowdhealth: warning: " << chplot::missingGnuplotMessage("the calibration plot") << "\n";
+        }
+
+        if (!quiet) {
+            std::cout << "crowdhealth calibrate: " << s.input << " against " << dataPath << " (" << data->observableName << ", "
+                      << plural(data->rows.size(), "data row") << " at " << plural(conditions, "condition") << "), "
+                      << plural(seeds, "seed") << " per evaluation: " << plural(searchEvaluations, "evaluation") << " ("
+                      << (found.converged ? "converged" : "stopped at --max-evaluations") << ") + " << 2 * p
+                      << " for the errors, " << evaluations.size() * conditions * seeds << " runs in "
+                      << formatDuration(wallSeconds) << "\n";
+            for (std::size_t k = 0; k < p; ++k)
+                std::cout << "  " << s.fits[k].target << " = " << cell(fitted.values[k]) << " +/- "
+                          << (std::isfinite(seFit[k]) ? cell(seFit[k]) : "?") << " (seeds: +/- "
+                          << (std::isfinite(seSeeds[k]) ? cell(seSeeds[k]) : "?") << ")\n";
+            if (!errorNote.empty()) std::cout << "  errors: " << errorNote << "\n";
+            std::cout << "  objective " << cell(fitted.objective) << ", rms residual " << cell(std::sqrt(fitted.objective / weightSum))
+                      << "\n  output  " << (output / "calibration.csv").string() << ", "
+                      << (output / "calibration-result.json").string();
+            if (plotted) std::cout << ", " << (output / "calibration.png").string();
+            std::cout << "\n";
+        }
+        return kExitOk;
+    }();
+    pool.finish(status);
+    return status;
 }
 
 }  // namespace chcli

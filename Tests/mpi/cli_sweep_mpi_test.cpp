@@ -1,7 +1,8 @@
 // `mpirun -n K crowdhealth sweep …`: the same sweep.csv (apart from wall_time) and sweep-summary.csv
 // as without MPI; rank 0 alone prints and writes; a failing run is marked failed while the others
 // finish; a killed MPI sweep resumes from its records; errors in the arguments are printed once and
-// every rank exits with the same status. Registered only when the program is built with MPI and
+// every rank exits with the same status; `crowdhealth calibrate` gives the same search and result
+// under MPI as without, and its errors are printed once too. Registered only when the program is built with MPI and
 // mpirun is found (Tests/CMakeLists.txt). Tests/data/cli/doorway-small.xml: 42 agents leave a
 // 6 x 6 m room through a door (seed 11, end time 20 s), the SPH model as policy 0.
 #define BOOST_TEST_MODULE cli_sweep_mpi
@@ -297,4 +298,48 @@ BOOST_AUTO_TEST_CASE(errors_are_printed_once_and_every_rank_exits_2) {
     BOOST_TEST(help.status == 0);
     BOOST_TEST(allRanksExited(runMpi(d, 3, {"sweep", "--help"}, true), 0));
     BOOST_TEST(count(help.out, "Usage: crowdhealth sweep") == 1u, help.out);
+}
+
+// ---- crowdhealth calibrate on the same machinery ----
+
+namespace {
+
+/// A calibration of the door template (Tests/data/cli/calibrate-door.xml) against two made-up
+/// evacuation times: 2 conditions × 2 seeds per evaluation.
+std::vector<std::string> calibrateArgs(const fs::path& dir, const fs::path& out, const std::vector<std::string>& more = {}) {
+    writeText(dir / "door.csv", "width,evacuation_time\n1.8,9.4\n2,8.6\n");
+    std::vector<std::string> a = {"calibrate", "-i", testData("calibrate-door.xml"), "--data", (dir / "door.csv").string(),
+                                  "--fit", "agents.pref_speed=0.7:1.6", "--seeds", "2", "--seed", "3",
+                                  "--max-evaluations", "12", "-o", out.string()};
+    a.insert(a.end(), more.begin(), more.end());
+    return a;
+}
+
+}  // namespace
+
+BOOST_AUTO_TEST_CASE(a_calibration_under_mpi_gives_the_same_search_and_result) {
+    const fs::path d = freshDir(caseName());
+    const Result local = run(d, calibrateArgs(d, d / "local", {"--quiet"}));
+    BOOST_REQUIRE_MESSAGE(local.status == 0, local.err);
+    const MpiResult m = runMpi(d, 3, calibrateArgs(d, d / "mpi"));
+    BOOST_REQUIRE_MESSAGE(m.status == 0, m.err);
+    BOOST_TEST(readFile(d / "mpi" / "calibration.csv") == readFile(d / "local" / "calibration.csv"));
+    BOOST_TEST(readFile(d / "mpi" / "calibration-result.json") == readFile(d / "local" / "calibration-result.json"));
+    BOOST_TEST(lines(readFile(d / "local" / "calibration.csv")).size() > 10u);  // a search, not one point
+    BOOST_TEST(count(m.out, "crowdhealth calibrate:") == 1u, m.out);  // one closing report, from rank 0
+}
+
+BOOST_AUTO_TEST_CASE(calibration_errors_are_printed_once_and_every_rank_exits_2) {
+    const fs::path d = freshDir(caseName());
+    auto a = calibrateArgs(d, d / "out");
+    a[4] = (d / "missing.csv").string();  // --data FILE that no rank can read
+    const MpiResult bad = runMpi(d, 3, a);
+    BOOST_TEST(bad.status == 2);
+    BOOST_TEST(count(bad.err, "cannot read the data file") == 1u, bad.err);
+    BOOST_TEST(allRanksExited(runMpi(d, 3, a, true), 2));
+    BOOST_TEST(!fs::exists(d / "out"));
+    // A file only the controller cannot write to: the workers must not wait for it.
+    std::ofstream(d / "blocked") << "a file, not a folder\n";
+    const auto blocked = calibrateArgs(d, d / "blocked" / "out");
+    BOOST_TEST(allRanksExited(runMpi(d, 3, blocked, true), 1));
 }
