@@ -779,6 +779,7 @@ void usage() {
                  "  --crowdhealth PATH  the crowdhealth program it runs (default: beside this benchmark)\n"
                  "  --umans-reps N  runs of each program, interleaved (default 3; --quick 1)\n"
                  "  --umans-time T  simulated seconds of each run (default 10 = 100 steps; --quick 1)\n"
+                 "  --write-umans-scene FILE  write that scene (end_time: --umans-time given before it) and stop\n"
                  "  --no-fork       run cases in this process (peak memory then accumulates)\n";
 }
 
@@ -811,6 +812,13 @@ int main(int argc, char** argv) {
         else if (a == "--crowdhealth") crowdhealthOption = next();
         else if (a == "--umans-reps") umansReps = std::stoi(next());
         else if (a == "--umans-time") umansTime = std::stod(next());
+        else if (a == "--write-umans-scene") {
+            // The side-by-side scene as a file, to profile or run by hand; nothing else is run.
+            const std::string file = next();
+            writeUmansScenario(file, 10000, umansTime > 0 ? umansTime : 10.0);
+            std::printf("wrote %s\n", file.c_str());
+            return 0;
+        }
         else if (a == "--help" || a == "-h") {
             usage();
             return 0;
