@@ -1,9 +1,101 @@
 // CrowdHealth — SocialForcesAvoidance (Helbing & Molnár 1995).
 #include "SocialForcesAvoidance.h"
 
+#include "SocialForcesSimd.h"
+
+#include <algorithm>
 #include <cmath>
+#include <span>
 
 namespace ch {
+
+namespace {
+
+/// What the pair loop needs besides the neighbour list (one agent's call).
+struct PairLoop {
+    const SocialForcesAvoidance::Other* other;  ///< per agent: its step, |step|², radius
+    Vec2 ownStep;            ///< with relative velocities: the agent's own v Δt (subtracted)
+    bool relative, cutoff, headingZero;
+    double ownRadius, range, cosFov, behind, V0, sigma;
+    Vec2 heading;
+};
+
+/// Σ_j w_j f_j over the neighbour list: the elliptic pair force of pairForce() and the field-of-view
+/// weight, simd::kLanes (4) pairs at a time (issue 20). Pairs that exert no force (beyond range, in contact,
+/// degenerate ellipse) are masked to +0. The sum runs over the list in order, one term after the
+/// other, so it does not depend on how the lanes are grouped. The terms differ from pairForce()'s
+/// in the last bits: the exponential is simd::expNonPositive (within 5e-16 of std::exp) and the
+/// gradient takes one division instead of three (∇b = (|R| + |R−s|)/(4b|R||R−s|) ·
+/// (R|R−s| + (R−s)|R|)). With std::exp and pairForce()'s three divisions this loop gave the bits
+/// of the scalar loop it replaced, every state hash of crowdhealth-bench unchanged.
+/// Compiled twice (AVX2 and generic x86-64, chosen when the program starts): the same operations
+/// without fused multiply-add, so both give the same bits.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+__attribute__((target_clones("avx2", "default")))
+#endif
+Vec2 pedestrianForces(std::span<const NeighbourAgent> list, const PairLoop& in) {
+    using simd::DV;
+    using simd::IV;
+    using simd::splat;
+    const std::size_t m = list.size();
+    const double invSigma = 1.0 / in.sigma;
+    const DV range = splat(in.range), ownRadius = splat(in.ownRadius), behind = splat(in.behind);
+    const DV hx = splat(in.heading.x()), hy = splat(in.heading.y()), cosFov = splat(in.cosFov);
+    const DV ownSx = splat(in.ownStep.x()), ownSy = splat(in.ownStep.y());
+    const DV zero = splat(0.0), half = splat(0.5), four = splat(4.0), one = splat(1.0);
+    const DV vOverSigma = splat(in.V0 * invSigma), invS = splat(invSigma);
+    double fx = 0, fy = 0;
+    for (std::size_t k0 = 0; k0 < m; k0 += simd::kLanes) {
+        // Gather kLanes neighbours (the last block repeats its last one in the unused lanes, masked).
+        DV ox, oy, sx, sy, ssq, rj;
+        IV live;
+        for (int l = 0; l < simd::kLanes; ++l) {
+            const std::size_t k = std::min(k0 + static_cast<std::size_t>(l), m - 1);
+            const NeighbourAgent& n = list[k];
+            const SocialForcesAvoidance::Other& o = in.other[n.index];
+            ox[l] = n.offset.x();
+            oy[l] = n.offset.y();
+            sx[l] = o.sx;
+            sy[l] = o.sy;
+            ssq[l] = o.stepSq;
+            rj[l] = o.radius;
+            live[l] = k0 + static_cast<std::size_t>(l) < m ? -1 : 0;
+        }
+        const DV distance = simd::sqrt(ox * ox + oy * oy);  // NeighbourAgent::distance()
+        IV use = live & (distance <= range);
+        if (in.cutoff) use &= distance > ownRadius + rj;  // in contact: contact forces act
+        if (in.relative) {
+            sx = sx - ownSx;
+            sy = sy - ownSy;
+            ssq = sx * sx + sy * sy;
+        }
+        // pairForce(R = −offset, |R|, s, |s|²).
+        const DV Rx = -ox, Ry = -oy;
+        const DV R2x = Rx - sx, R2y = Ry - sy;
+        const DV magR2 = simd::sqrt(R2x * R2x + R2y * R2y);
+        const DV sum = distance + magR2;
+        const DV twoBSquared = sum * sum - ssq;
+        use &= (twoBSquared > zero) & (distance >= splat(1e-9)) & (magR2 >= splat(1e-9));
+        const DV b = half * simd::sqrt(simd::select(use, twoBSquared, one));
+        use &= b >= splat(1e-3);
+        // ∇b = (|R| + |R−s|)/(4b) · (R/|R| + (R−s)/|R−s|), over one common denominator.
+        const DV c = sum / (four * b * distance * magR2);
+        const DV gx = c * (Rx * magR2 + R2x * distance), gy = c * (Ry * magR2 + R2y * distance);
+        const DV a = vOverSigma * simd::expNonPositive(-b * invS);
+        // Eq. 8: full weight when the neighbour is within the field of view.
+        IV inView = hx * ox + hy * oy >= cosFov * distance;
+        if (in.headingZero) inView = inView | ~inView;
+        const DV w = simd::select(inView, one, behind);
+        const DV tx = simd::select(use, w * (a * gx), zero), ty = simd::select(use, w * (a * gy), zero);
+        for (int l = 0; l < simd::kLanes; ++l) {
+            fx += tx[l];
+            fy += ty[l];
+        }
+    }
+    return Vec2(fx, fy);
+}
+
+}  // namespace
 
 CH_REGISTER_COMPONENT(SocialForcesAvoidance);
 
@@ -78,10 +170,11 @@ void SocialForcesAvoidance::prepare(const StepContext& ctx) {
     const std::size_t n = A.size();
     const bool relative = otherVelocity_ != 0;
     step_.resize(n);
-    stepSq_.resize(n);
+    other_.resize(n);
     for (std::size_t j = 0; j < n; ++j) {
         step_[j] = relative ? Vec2(dt_ * A.vel[j]) : Vec2(A.vel[j].norm() * dt_ * normalisedOrZero(A.prefVel[j]));
-        stepSq_[j] = step_[j].squaredNorm();
+        // What the pair loop reads of a neighbour, in one 32-byte record (one cache line).
+        other_[j] = Other{step_[j].x(), step_[j].y(), relative ? 0.0 : step_[j].squaredNorm(), A.radius[j]};
     }
 }
 
@@ -99,27 +192,20 @@ Vec2 SocialForcesAvoidance::acceleration(const AgentQuery& q, const StepContext&
     const double cosFov = std::cos(fovDeg_ * kPi / 180.0);
 
     const bool relative = otherVelocity_ != 0;
-    const bool cutoff = contactCutoff_ != 0;
-    const Vec2 ownStep = relative ? Vec2(step_[static_cast<std::size_t>(q.i)]) : Vec2(0, 0);
-
-    Vec2 f(0, 0);
-    for (const NeighbourAgent& n : q.agents) {
-        const double distance = n.distance();
-        if (distance > range_) continue;
-        if (cutoff && distance <= q.radius + A.radius[n.index]) continue;  // in contact: contact forces act
-        const Vec2 R = -n.offset;  // from the neighbour to us
-        const std::size_t j = static_cast<std::size_t>(n.index);
-        Vec2 fj;
-        if (relative) {
-            const Vec2 s = step_[j] - ownStep;
-            fj = pairForce(R, distance, s, s.squaredNorm());
-        } else {
-            fj = pairForce(R, distance, step_[j], stepSq_[j]);
-        }
-        // Eq. 8: full weight when the neighbour is within the field of view.
-        const bool inView = heading.squaredNorm() == 0 || heading.dot(n.offset) >= cosFov * distance;
-        f += (inView ? 1.0 : behind_) * fj;
-    }
+    PairLoop in;
+    in.other = other_.data();
+    in.ownStep = relative ? Vec2(step_[static_cast<std::size_t>(q.i)]) : Vec2(0, 0);
+    in.relative = relative;
+    in.cutoff = contactCutoff_ != 0;
+    in.headingZero = heading.squaredNorm() == 0;
+    in.ownRadius = q.radius;
+    in.range = range_;
+    in.cosFov = cosFov;
+    in.behind = behind_;
+    in.V0 = V0_;
+    in.sigma = sigma_;
+    in.heading = heading;
+    Vec2 f = q.agents.empty() ? Vec2(0, 0) : pedestrianForces(q.agents, in);
     if (walls_ != 0) return (f + wallsUmans(q, ctx, heading, cosFov)) / q.mass;
     // Walls: one force per obstacle, from its nearest point (Helbing & Molnár's "nearest point of
     // the border"). Summing over segments would count a convex corner twice — its two edges share

@@ -19,7 +19,9 @@
 #include "../test_support.h"
 
 #include <omp.h>
+#include <fcntl.h>
 #include <sys/resource.h>
+#include <sys/time.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -232,7 +234,7 @@ struct Result {
     double limitMs = 0;      ///< tight-kernel lower bound for the same pair work (dense SPH)
     double pairsPerAgent = 0;
     double extra1 = 0, extra2 = 0;  ///< neighbour search: build ms, ns per query; kernel: pairs/s
-    double extra3 = 0;              ///< navigation: grid ms
+    double extra3 = 0;              ///< navigation: grid ms; vs-umans: median wall-time ratio
     std::uint64_t hash = 0;
     bool ok = false;
 };
@@ -577,6 +579,149 @@ Result runOutputCase(const std::string& what, std::size_t n, int reps) {
     return r;
 }
 
+// ---------------------------------------------------------------------------------------------
+// Side by side with UMANS 1.x (issue 20): the same scene as an XML scenario both programs load,
+// each run as a whole process as users run it, one thread, interleaved and repeated.
+
+/// The social-forces scene (socialForces(n)) as a UMANS scenario file: inline <Policies> and
+/// <Agents>, every agent attribute written out (the two programs' defaults agree, but the file
+/// should not depend on that), positions to the last bit of a double (UMANS rounds them to float).
+void writeUmansScenario(const std::filesystem::path& file, std::size_t n, double endTime) {
+    const ScenarioSpec s = socialForces(n);
+    std::ofstream out(file);
+    char buf[512];
+    std::snprintf(buf, sizeof buf, "<Simulation delta_time=\"%g\" end_time=\"%g\">\n", s.deltaTime, endTime);
+    out << "<?xml version=\"1.0\" encoding=\"utf-8\"?>\n<!-- crowdhealth-bench: the social-forces scene -->\n" << buf
+        << "\t<World type=\"Infinite\" />\n"
+           "\t<Policies>\n"
+           "\t\t<Policy id=\"0\" OptimizationMethod=\"gradient\" RelaxationTime=\"0.5\" ContactForceScale=\"62.5\">\n"
+           "\t\t\t<costfunction name=\"SocialForcesAvoidance\" range=\"5\" />\n"
+           "\t\t\t<costfunction name=\"GoalReachingForce\" />\n"
+           "\t\t</Policy>\n"
+           "\t</Policies>\n"
+           "\t<Agents>\n";
+    for (const AgentSpec& a : s.agents) {
+        std::snprintf(buf, sizeof buf,
+                      "\t\t<Agent rad=\"%g\" pref_speed=\"%g\" max_speed=\"%g\" max_acceleration=\"%g\">"
+                      "<pos x=\"%.17g\" y=\"%.17g\"/><goal x=\"%.17g\" y=\"%.17g\"/><Policy id=\"0\"/></Agent>\n",
+                      a.radius, a.prefSpeed, a.maxSpeed, a.maxAcceleration, a.position.x(), a.position.y(),
+                      a.goal->x(), a.goal->y());
+        out << buf;
+    }
+    out << "\t</Agents>\n</Simulation>\n";
+}
+
+/// One whole-process run: CPU time (user + system, from wait4; what `perf stat -e task-clock`
+/// counts) and wall time, in seconds; ok = exit status 0. stdout and stderr go to `log`.
+struct ProcessTime {
+    double cpu = 0, wall = 0;
+    bool ok = false;
+};
+ProcessTime runProcess(const std::vector<std::string>& args, const std::filesystem::path& log) {
+    ProcessTime t;
+    std::vector<char*> argv;
+    for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+    argv.push_back(nullptr);
+    const auto t0 = Clock::now();
+    const pid_t pid = ::fork();
+    if (pid < 0) return t;
+    if (pid == 0) {
+        const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        if (fd >= 0) {
+            dup2(fd, 1);
+            dup2(fd, 2);
+        }
+        execv(argv[0], argv.data());
+        _exit(127);
+    }
+    int status = 0;
+    rusage u{};
+    if (wait4(pid, &status, 0, &u) != pid) return t;
+    t.wall = std::chrono::duration<double>(Clock::now() - t0).count();
+    t.cpu = static_cast<double>(u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
+            1e-6 * static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+    t.ok = WIFEXITED(status) && WEXITSTATUS(status) == 0;
+    return t;
+}
+
+/// The UMANS console application: --umans PATH, else $CROWDHEALTH_UMANS, else where
+/// ../shared/reference/umans/build-umans.sh leaves it. Empty if none is there.
+std::string findUmans(const std::string& option) {
+    namespace fs = std::filesystem;
+    std::vector<std::string> tries;
+    if (!option.empty()) tries.push_back(option);
+    if (const char* e = std::getenv("CROWDHEALTH_UMANS"); e != nullptr && *e) tries.emplace_back(e);
+    tries.emplace_back("/tmp/umans-ref/build/UMANS-ConsoleApplication-Linux");
+    for (const std::string& p : tries)
+        if (access(p.c_str(), X_OK) == 0 && fs::is_regular_file(p)) return p;
+    return {};
+}
+
+/// The crowdhealth program: --crowdhealth PATH, else beside this benchmark (build/bin).
+std::string findCrowdHealth(const std::string& option) {
+    namespace fs = std::filesystem;
+    if (!option.empty()) return option;
+    std::error_code ec;
+    const fs::path self = fs::read_symlink("/proc/self/exe", ec);
+    return ec ? std::string("crowdhealth") : (self.parent_path() / "crowdhealth").string();
+}
+
+/// Runs UMANS and crowdhealth on the social-forces scene (n agents, endTime simulated seconds),
+/// one thread each, `reps` times in turn (UMANS, then us), and prints each pair's CPU and wall
+/// times and their ratios; the medians go into a Result (msMedian: our CPU ms per step; extra1:
+/// UMANS' CPU ms per step; extra2: the median of the per-pair CPU ratios; extra3: of the wall ratios).
+Result runUmansCase(const std::string& umans, const std::string& crowdhealth, std::size_t n, double endTime, int reps) {
+    namespace fs = std::filesystem;
+    Result r;
+    std::snprintf(r.kind, sizeof r.kind, "%s", "vs-umans");
+    std::snprintf(r.scene, sizeof r.scene, "%s", "social-forces");
+    r.n = static_cast<double>(n);
+    r.threads = 1;
+    const fs::path dir = fs::temp_directory_path() / ("crowdhealth-bench-umans-" + std::to_string(getpid()));
+    fs::create_directories(dir);
+    const fs::path scene = dir / "social-forces.xml";
+    writeUmansScenario(scene, n, endTime);
+    const double steps = std::round(endTime / 0.1);
+    std::printf("scene %s: %zu agents, %g steps of 0.1 s; UMANS: %s -i SCENE -t 1 (no -o: no trajectories)\n"
+                "crowdhealth: %s -i SCENE -o OUT -t 1 -q --trajectories none (metrics, verdict, summary as default)\n",
+                scene.c_str(), n, steps, umans.c_str(), crowdhealth.c_str());
+    std::printf("%4s  %10s %10s  %10s %10s  %8s %8s  %s\n", "rep", "UMANS cpu", "wall", "ours cpu", "wall",
+                "cpu ratio", "wall rat", "load");
+    std::vector<double> cpuRatio, wallRatio, oursCpu, umansCpu;
+    bool ok = true;
+    for (int k = 0; k < reps && ok; ++k) {
+        const ProcessTime u = runProcess({umans, "-i", scene.string(), "-t", "1"}, dir / "umans.log");
+        const ProcessTime c = runProcess({crowdhealth, "-i", scene.string(), "-o", (dir / "out").string(), "-t", "1",
+                                          "-q", "--trajectories", "none"},
+                                         dir / "crowdhealth.log");
+        if (!u.ok || !c.ok) {
+            std::printf("  %s failed: see %s\n", !u.ok ? "UMANS" : "crowdhealth",
+                        (dir / (!u.ok ? "umans.log" : "crowdhealth.log")).c_str());
+            ok = false;
+            break;
+        }
+        double load[1] = {0};
+        if (getloadavg(load, 1) < 1) load[0] = -1;
+        cpuRatio.push_back(u.cpu / c.cpu);
+        wallRatio.push_back(u.wall / c.wall);
+        oursCpu.push_back(c.cpu);
+        umansCpu.push_back(u.cpu);
+        std::printf("%4d  %9.2fs %9.2fs  %9.2fs %9.2fs  %7.2fx %7.2fx  %.1f\n", k + 1, u.cpu, u.wall, c.cpu, c.wall,
+                    cpuRatio.back(), wallRatio.back(), load[0]);
+        std::fflush(stdout);
+    }
+    if (ok) {
+        r.msMedian = 1e3 * median(oursCpu) / steps;
+        r.msMin = 1e3 * *std::min_element(oursCpu.begin(), oursCpu.end()) / steps;
+        r.extra1 = 1e3 * median(umansCpu) / steps;
+        r.extra2 = median(cpuRatio);
+        r.extra3 = median(wallRatio);
+        r.ok = true;
+        fs::remove_all(dir);  // kept when a run failed, for its log
+    }
+    return r;
+}
+
 /// Runs f in a forked child and returns its Result (or !ok if the child failed).
 Result inChild(const std::function<Result()>& f, bool fork) {
     if (!fork) return f();
@@ -626,8 +771,15 @@ void usage() {
                  "  --large         also the 1M-agent dense SPH crowd\n"
                  "  --threads LIST  thread counts, comma separated (default 1,2)\n"
                  "  --steps N       timed steps per case (default: by size)\n"
-                 "  --only TEXT     run only cases whose name contains TEXT (dense, order, social, hall, neigh, navigation, output)\n"
+                 "  --only TEXT     run only cases whose name contains TEXT (dense, order, social, hall, neigh, navigation, output, umans)\n"
                  "  --csv FILE      also write every row as CSV\n"
+                 "  --umans PATH    UMANS' console application for the side-by-side case (default: $CROWDHEALTH_UMANS,\n"
+                 "                  else /tmp/umans-ref/build/UMANS-ConsoleApplication-Linux as\n"
+                 "                  ../shared/reference/umans/build-umans.sh leaves it; the case is skipped without it)\n"
+                 "  --crowdhealth PATH  the crowdhealth program it runs (default: beside this benchmark)\n"
+                 "  --umans-reps N  runs of each program, interleaved (default 3; --quick 1)\n"
+                 "  --umans-time T  simulated seconds of each run (default 10 = 100 steps; --quick 1)\n"
+                 "  --write-umans-scene FILE  write that scene (end_time: --umans-time given before it) and stop\n"
                  "  --no-fork       run cases in this process (peak memory then accumulates)\n";
 }
 
@@ -637,7 +789,9 @@ int main(int argc, char** argv) {
     bool quick = false, large = false, fork = true;
     std::vector<int> threads = {1, 2};
     int stepsOverride = 0;
-    std::string csvPath, only;
+    std::string csvPath, only, umansOption, crowdhealthOption;
+    int umansReps = 0;
+    double umansTime = 0;
     for (int k = 1; k < argc; ++k) {
         const std::string a = argv[k];
         auto next = [&]() -> std::string {
@@ -654,6 +808,17 @@ int main(int argc, char** argv) {
         else if (a == "--csv") csvPath = next();
         else if (a == "--only") only = next();
         else if (a == "--no-fork") fork = false;
+        else if (a == "--umans") umansOption = next();
+        else if (a == "--crowdhealth") crowdhealthOption = next();
+        else if (a == "--umans-reps") umansReps = std::stoi(next());
+        else if (a == "--umans-time") umansTime = std::stod(next());
+        else if (a == "--write-umans-scene") {
+            // The side-by-side scene as a file, to profile or run by hand; nothing else is run.
+            const std::string file = next();
+            writeUmansScenario(file, 10000, umansTime > 0 ? umansTime : 10.0);
+            std::printf("wrote %s\n", file.c_str());
+            return 0;
+        }
         else if (a == "--help" || a == "-h") {
             usage();
             return 0;
@@ -765,6 +930,27 @@ int main(int argc, char** argv) {
         for (const char* what :
              {"metrics row", "  density h=1", "  crowd field", "safety record", "bin frame", "bin+v frame", "txt frame"})
             report(inChild([&] { return runOutputCase(what, n, reps); }, fork));
+    }
+
+    if (wanted("umans")) {
+        std::printf("\nvs-umans: UMANS 1.x and crowdhealth side by side, whole processes, one thread, interleaved; "
+                    "cpu = user + system seconds of the process, ratio = UMANS / ours\n");
+        const std::string umans = findUmans(umansOption);
+        if (umans.empty()) {
+            std::printf("vs-umans: skipped, UMANS not found (build it with ../shared/reference/umans/build-umans.sh, "
+                        "or give --umans PATH)\n");
+        } else {
+            const Result r = runUmansCase(umans, findCrowdHealth(crowdhealthOption), 10000,
+                                          umansTime > 0 ? umansTime : quick ? 1.0 : 10.0,
+                                          umansReps > 0 ? umansReps : quick ? 1 : 3);
+            if (r.ok) {
+                results.push_back(r);
+                std::printf("vs-umans       %8.0f %3.0f  UMANS %7.1f ms/step cpu, ours %7.1f ms/step cpu (min %.1f): "
+                            "median ratio %.2fx cpu, %.2fx wall\n",
+                            r.n, r.threads, r.extra1, r.msMedian, r.msMin, r.extra2, r.extra3);
+            }
+        }
+        std::fflush(stdout);
     }
 
     // Phase breakdown (mean ms per step over the timed steps).

@@ -16,9 +16,24 @@ NeighbourLists::Slice NeighbourLists::slice(int thread, const Place& at, std::si
                  static_cast<std::uint32_t>(at.begin), static_cast<std::uint32_t>(count)};
 }
 
-void NeighbourLists::build(const std::vector<Vec2>& positions, const PointGrid& grid, const World& world,
+void NeighbourLists::build(const std::vector<Vec2>& positions, const PointGrid& stepGrid, const World& world,
                            const std::vector<int>& group, const std::vector<double>& rangeOfGroup) {
     const std::size_t n = positions.size();
+    // Long ranges (social forces: 5 m) search a finer grid of their own. With cells as wide as
+    // the range, the query disc's bounding box covers 3 × 3 cells, (2r + c)² = 9r² of area for a
+    // disc of πr²: 2.9 candidates per neighbour, each written to the list (branch-free append).
+    // With cells of r/4 it covers (2.25r)², 1.6 candidates per neighbour, for one more counting
+    // sort of the positions per step. Lists then follow that grid's visit order: the same
+    // neighbours, summed in another order (docs/performance.md, issue 20). Short ranges (SPH,
+    // contact: ~1 m) keep the step's grid and its order; so do periodic worlds.
+    double reach = 0;
+    for (double r : rangeOfGroup) reach = std::max(reach, r);
+    const PointGrid* gridUsed = &stepGrid;
+    if (!world.periodic() && reach >= kFineGridFrom && n > 0) {
+        fine_.build(positions, reach / kFineGridCells);
+        gridUsed = &fine_;
+    }
+    const PointGrid& grid = *gridUsed;
     const int threads = std::max(1, omp_get_max_threads());
     if (agentBuffers_.size() < static_cast<std::size_t>(threads)) {
         agentBuffers_.resize(static_cast<std::size_t>(threads));

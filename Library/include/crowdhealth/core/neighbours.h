@@ -37,9 +37,17 @@ static_assert(sizeof(NeighbourAgent) == 24, "NeighbourAgent should stay 24 bytes
 class NeighbourLists {
 public:
     /// Rebuilds the lists for `positions` from `grid` (built over the same positions with a cell
-    /// of at least the largest radius). Agent i's radius is rangeOfGroup[group[i]].
+    /// of at least the largest radius). Agent i's radius is rangeOfGroup[group[i]]. When the
+    /// largest radius is at least kFineGridFrom (and the world is not periodic) the lists are
+    /// gathered from a grid of cells a kFineGridCells-th of it instead, built here: fewer
+    /// candidates to test, the lists then in that grid's visit order.
     void build(const std::vector<Vec2>& positions, const PointGrid& grid, const World& world,
                const std::vector<int>& group, const std::vector<double>& rangeOfGroup);
+
+    /// Largest list radius (m) from which lists are gathered from a finer grid of their own.
+    static constexpr double kFineGridFrom = 2.0;
+    /// Cells per list radius in that grid.
+    static constexpr double kFineGridCells = 4.0;
 
     std::size_t size() const { return agentSlice_.size(); }
     /// The radius (m) agent i's lists were gathered with.
@@ -112,6 +120,7 @@ private:
     std::vector<BlockBuffer<int>> segmentBuffers_;           ///< one per thread
     std::vector<std::vector<int>> scratch_;                  ///< one per thread: segment query
     std::vector<Slice> agentSlice_, segmentSlice_;           ///< per agent, into the buffers
+    PointGrid fine_;  ///< the finer grid for long ranges (kept: no allocation per step)
     const std::vector<int>* group_ = nullptr;
     std::vector<double> rangeOfGroup_;
 };

@@ -1,0 +1,126 @@
+// CrowdHealth tests — SocialForcesAvoidance's SIMD pair loop (issue 20): its exponential
+// against std::exp, and the whole agent force against the scalar pair force summed in list order,
+// for every combination of the model's switches and lists of every length modulo the lane count.
+#define BOOST_TEST_MODULE policies_social_forces_simd
+#include <boost/test/included/unit_test.hpp>
+
+#include "test_support.h"
+
+#include "SocialForcesAvoidance.h"
+#include "SocialForcesSimd.h"
+
+#include <cmath>
+#include <random>
+
+using namespace ch;
+
+namespace {
+
+double relativeError(double got, double want) { return std::abs(got - want) / std::abs(want); }
+
+/// exp of four arguments through simd::expNonPositive (in the first four lanes; the others 0).
+simd::DV exp4(double a, double b, double c, double d) {
+    simd::DV x = simd::splat(0.0);
+    x[0] = a, x[1] = b, x[2] = c, x[3] = d;
+    return simd::expNonPositive(x);
+}
+
+}  // namespace
+
+BOOST_AUTO_TEST_CASE(exp_matches_std_exp_to_a_few_ulp) {
+    // Dense random arguments over the whole range, and the social force's usual one (−b/σ for b up
+    // to ~10 m, σ = 0.3 m: [−35, 0]).
+    std::mt19937_64 rng(3);
+    std::uniform_real_distribution<double> wide(-708.0, 0.0), usual(-35.0, 0.0);
+    double worst = 0;
+    for (int k = 0; k < 200000; ++k) {
+        const double x[4] = {wide(rng), usual(rng), usual(rng), -std::ldexp(usual(rng), -30)};
+        const simd::DV e = exp4(x[0], x[1], x[2], x[3]);
+        for (int l = 0; l < 4; ++l) worst = std::max(worst, relativeError(e[l], std::exp(x[l])));
+    }
+    BOOST_TEST_MESSAGE("largest relative error " << worst);
+    BOOST_TEST(worst < 1e-15);  // about 4 ulp
+    // Where rounding to k changes: halfway points of x / ln 2, and the ends of the range.
+    for (int k = -1020; k <= 0; ++k) {  // (k − 0.5)·ln 2 ≥ −708
+        const double x = (k - 0.5) * 0.69314718055994530942;
+        const simd::DV e = exp4(x, std::nextafter(x, 0.0), std::nextafter(x, -1.0), k * 0.69314718055994530942);
+        BOOST_TEST(relativeError(e[0], std::exp(x)) < 1e-15);
+        BOOST_TEST(relativeError(e[1], std::exp(std::nextafter(x, 0.0))) < 1e-15);
+        BOOST_TEST(relativeError(e[2], std::exp(std::nextafter(x, -1.0))) < 1e-15);
+        BOOST_TEST(relativeError(e[3], std::exp(k * 0.69314718055994530942)) < 1e-15);
+    }
+    const simd::DV ends = exp4(0.0, -0.0, -708.0, -709.0);
+    BOOST_TEST(ends[0] == 1.0);
+    BOOST_TEST(ends[1] == 1.0);
+    BOOST_TEST(relativeError(ends[2], std::exp(-708.0)) < 1e-15);
+    BOOST_TEST(ends[3] == 0.0);  // below −708: 0 (e^−709 ≈ 1.2e-308, the edge of the normal range)
+}
+
+namespace {
+
+/// A crowd of n + 1 agents round agent 0 (a few in contact with it, some beyond range 5 m), and
+/// SocialForcesAvoidance with the given switches: returns acceleration() and the scalar reference,
+/// Σ_j w_j pairForce(R_j, s_j) in list order, divided by the mass.
+std::pair<Vec2, Vec2> forceAndReference(int n, bool relative, bool cutoff, bool atRest, std::uint64_t seed) {
+    test::Frame f;
+    std::mt19937_64 rng(seed);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    f.add(Vec2(0, 0), Vec2(10, 3), atRest ? Vec2(0, 0) : Vec2(1.1, 0.2));
+    for (int k = 0; k < n; ++k) {
+        // Most within 5 m, one in five in contact (closer than 0.6 m), a few beyond 5 m.
+        const double r = k % 5 == 0 ? 0.1 + 0.45 * std::abs(u(rng)) : 0.7 + 5.0 * std::abs(u(rng));
+        const double a = 3.2 * u(rng);
+        f.add(Vec2(r * std::cos(a), r * std::sin(a)), Vec2(10 * u(rng), 10 * u(rng)), Vec2(u(rng), u(rng)));
+    }
+    f.agents.mass[0] = 1.3;
+    auto sf = test::make("SocialForcesAvoidance",
+                         {{"range", 5}, {"otherVelocity", relative ? 1 : 0}, {"contactCutoff", cutoff ? 1 : 0}});
+    auto& force = dynamic_cast<SocialForcesAvoidance&>(*sf);
+    const StepContext ctx = f.context();
+    force.prepare(ctx);
+    const test::OwnedQuery q = f.query(0);
+    const Vec2 got = force.acceleration(q, ctx);
+
+    // The reference: the scalar pair force (pairForce with the other's speed and direction) and
+    // the field-of-view weight, summed in list order.
+    Vec2 heading = normalisedOrZero(q.velocity);
+    if (heading.squaredNorm() == 0) heading = normalisedOrZero(q.prefVelocity);
+    const double cosFov = std::cos(100.0 * kPi / 180.0);
+    Vec2 sum(0, 0);
+    for (const NeighbourAgent& nb : q.agents) {
+        const std::size_t j = static_cast<std::size_t>(nb.index);
+        const double d = nb.distance();
+        if (d > 5.0 || (cutoff && d <= q.radius + f.agents.radius[j])) continue;
+        Vec2 fj;
+        if (relative) {
+            // (v_β − v_α)Δt as a speed along a direction: the same step up to rounding.
+            const Vec2 s = 2.0 * (f.agents.vel[j] - q.velocity);
+            fj = force.pairForce(-nb.offset, s.norm() / 2.0, normalisedOrZero(s));
+        } else {
+            fj = force.pairForce(-nb.offset, f.agents.vel[j].norm(), normalisedOrZero(f.agents.prefVel[j]));
+        }
+        const bool inView = heading.squaredNorm() == 0 || heading.dot(nb.offset) >= cosFov * d;
+        sum += (inView ? 1.0 : 0.5) * fj;
+    }
+    return {got, sum / 1.3};
+}
+
+}  // namespace
+
+BOOST_AUTO_TEST_CASE(simd_force_equals_scalar_pair_sum) {
+    // Lists of every length modulo 8 (the lanes) and a long one; each switch combination.
+    for (int n : {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 15, 16, 17, 57})
+        for (bool relative : {false, true})
+            for (bool cutoff : {false, true})
+                for (bool atRest : {false, true}) {
+                    const auto [got, want] = forceAndReference(n, relative, cutoff, atRest, 100 + n);
+                    BOOST_TEST_CONTEXT("n " << n << " relative " << relative << " cutoff " << cutoff << " at rest "
+                                            << atRest) {
+                        BOOST_TEST(std::isfinite(got.x()));
+                        BOOST_TEST(std::isfinite(got.y()));
+                        const double scale = std::max(1e-300, want.norm());
+                        BOOST_TEST((got - want).norm() <= 1e-13 * scale);
+                        if (n >= 4) BOOST_TEST(want.norm() > 0);  // the comparison is not 0 == 0
+                    }
+                }
+}
