@@ -195,3 +195,24 @@ BOOST_AUTO_TEST_CASE(help_lists_the_command) {
     BOOST_TEST(own.status == 0);
     BOOST_TEST(own.out.find("--data") != std::string::npos);
 }
+
+BOOST_AUTO_TEST_CASE(the_shipped_templates_run_with_their_data) {
+    // Examples/validation's templates are not scenarios on their own (examples_run_test skips
+    // them): one evaluation each, with the data they are shipped for, must fill, load and run.
+    const fs::path d = freshDir(caseName());
+    const fs::path v = fs::path(CH_SOURCE_DIR) / "Examples" / "validation";
+    const std::vector<std::vector<std::string>> cases = {
+        {"-i", (v / "kretz-bottleneck-sph.xml").string(), "--data", (v / "kretz2006-flow-width.csv").string(),
+         "--fit", "0.SPH.restDensityMax=1.5:6", "-o", (d / "kretz").string()},
+        {"-i", (v / "weidmann-corridor.xml").string(), "--data", (v / "weidmann1993-speed-density.csv").string(),
+         "--measure-from", "10", "--fit", "0.SocialForcesAvoidance.V0=0.5:6", "-o", (d / "weidmann").string()},
+    };
+    for (const auto& c : cases) {
+        std::vector<std::string> a = {"calibrate", "--seeds", "1", "--max-evaluations", "1", "--quiet"};
+        a.insert(a.end(), c.begin(), c.end());
+        const Result r = run(d, a);
+        BOOST_TEST(r.status == 0, c[1] << ": " << r.err);
+        const std::string result = readFile(fs::path(c.back()) / "calibration-result.json");
+        BOOST_TEST(result.find("\"objective\"") != std::string::npos, c[1]);
+    }
+}
