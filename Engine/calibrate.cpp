@@ -3,6 +3,8 @@
 
 #include "exit_codes.h"
 #include "job_pool.h"
+
+#include <crowdhealth/core/plugins.h>
 #include "nelder_mead.h"
 #include "plot_gnuplot.h"
 #include "progress.h"
@@ -529,6 +531,8 @@ int calibrateCommand(int argc, char* argv[]) {
          "model - data (default), or (model - data) / data")
         ("measure-from", po::value<std::string>()->value_name("T"), "speed: measured from this time on (s, default 0)")
         ("end-time", po::value<std::string>()->value_name("T"), "simulated time to stop at (s), overrides Simulation@end_time")
+        ("plugin", po::value<std::vector<std::string>>()->composing()->value_name("FILE"),
+         "load a plugin before the scenario (as 'crowdhealth --plugin'; a scenario can also name it with <Plugin file=...>); repeatable")
         ("quiet,q", "no progress line and no closing lines")
         ("help,h", "show this help");
     // clang-format on
@@ -580,6 +584,14 @@ int calibrateCommand(int argc, char* argv[]) {
     if (!vm.count("fit")) return usage("nothing to fit: give at least one --fit TARGET=LO:HI");
     if (!vm.count("data") || str("data").empty()) return usage("no data given: use --data FILE");
 
+    if (vm.count("plugin"))
+        for (const std::string& f : vm["plugin"].as<std::vector<std::string>>()) {
+            const ch::PluginLoad load = ch::loadPlugin(ch::findPlugin(f, ""));
+            if (!load.ok) {
+                err << "crowdhealth: error: --plugin '" << f << "': " << load.error << "\n";
+                return kExitInput;
+            }
+        }
     CalibrationSetup s;
     s.input = str("input");
     const std::string dataPath = str("data");

@@ -3,6 +3,8 @@
 
 #include "exit_codes.h"
 #include "job_pool.h"
+
+#include <crowdhealth/core/plugins.h>
 #include "plot_gnuplot.h"
 #include "progress.h"
 #include "scenario_run.h"
@@ -682,6 +684,8 @@ int sweepCommand(int argc, char* argv[]) {
         ("jobs,j", po::value<std::string>()->value_name("N"), "runs at a time, each on one thread (default: one per hardware thread; under MPI one per worker rank)")
         ("end-time", po::value<std::string>()->value_name("T"), "simulated time to stop at (s), overrides Simulation@end_time")
         ("keep-runs", "keep every run's output folder as OUTDIR/runs/run_NNNNNN (metrics.csv, summary.json, ...)")
+        ("plugin", po::value<std::vector<std::string>>()->composing()->value_name("FILE"),
+         "load a plugin before the scenario (as 'crowdhealth --plugin'; a scenario can also name it with <Plugin file=...>); repeatable")
         ("quiet,q", "no progress line and no closing lines")
         ("help,h", "show this help");
     po::options_description hidden("Hidden");
@@ -778,6 +782,14 @@ int sweepCommand(int argc, char* argv[]) {
     JobPool pool(work, poolOptions);
 
     const int checked = [&]() -> int {
+        if (vm.count("plugin"))
+            for (const std::string& f : vm["plugin"].as<std::vector<std::string>>()) {
+                const ch::PluginLoad load = ch::loadPlugin(ch::findPlugin(f, ""));
+                if (!load.ok) {
+                    std::cerr << "crowdhealth: error: --plugin '" << f << "': " << load.error << "\n";
+                    return kExitInput;
+                }
+            }
         const Options base = runOptions(s, s.keepRuns);
         first = loadSpec(base, s.seed, true);
         if (!first) return kExitInput;

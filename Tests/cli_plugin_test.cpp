@@ -231,3 +231,27 @@ BOOST_AUTO_TEST_CASE(a_bare_plugin_name_is_found_in_CROWDHEALTH_PLUGIN_PATH) {
     const Result r = runIn(dir, "env " + shellQuote(path), CH_BINARY, {"-i", "scenario.xml", "--check"});
     BOOST_TEST(r.status == 0, r.err);
 }
+
+BOOST_AUTO_TEST_CASE(sweep_and_calibrate_take_plugin_parameters) {
+    // A plugin's parameter is a sweep target like any other, with --plugin or <Plugin>.
+    const fs::path dir = freshDir(caseName());
+    writeText(dir / "cli.xml", twoWalkers("", "      <costfunction name=\"DistancingForce\" />\n"));
+    const Result r = run(dir, {"sweep", "--plugin", kPlugin, "-i", "cli.xml", "-o", "sweep", "--vary",
+                               "0.DistancingForce.distance=1,1.5", "--quiet", "--jobs", "1"});
+    BOOST_REQUIRE_MESSAGE(r.status == 0, r.err);
+    const auto rows = lines(readFile(dir / "sweep" / "sweep.csv"));
+    BOOST_REQUIRE(rows.size() == 3u);
+    BOOST_TEST(contains(rows[0], "0.DistancingForce.distance"));
+    BOOST_TEST(contains(rows[1], ",ok,"), rows[1]);
+    BOOST_TEST(contains(rows[2], ",ok,"), rows[2]);
+    const Result bad = run(dir, {"sweep", "--plugin", "nowhere.so", "-i", "cli.xml", "-o", "sweep2", "--vary",
+                                 "0.DistancingForce.distance=1"});
+    BOOST_TEST(bad.status == 2);
+    BOOST_TEST(contains(bad.err, "crowdhealth: error: --plugin 'nowhere.so': no such file"), bad.err);
+    const Result cal = run(dir, {"calibrate", "--plugin", "nowhere.so", "-i", "cli.xml", "--data", "x.csv", "--fit",
+                                 "0.DistancingForce.distance=1:2", "-o", "cal"});
+    BOOST_TEST(cal.status == 2);
+    BOOST_TEST(contains(cal.err, "crowdhealth: error: --plugin 'nowhere.so': no such file"), cal.err);
+    BOOST_TEST(!fs::exists(dir / "sweep2"));
+    BOOST_TEST(!fs::exists(dir / "cal"));
+}
