@@ -3,6 +3,7 @@
 
 #include "exit_codes.h"
 #include "job_pool.h"
+#include "text_numbers.h"
 
 #include <crowdhealth/core/plugins.h>
 #include "nelder_mead.h"
@@ -41,17 +42,7 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-bool parseDouble(const std::string& text, double& value) {
-    const char* end = text.data() + text.size();
-    const auto res = std::from_chars(text.data(), end, value);
-    return !text.empty() && res.ec == std::errc() && res.ptr == end && std::isfinite(value);
-}
 
-bool parseUnsigned(const std::string& text, std::uint64_t& value) {
-    const char* end = text.data() + text.size();
-    const auto res = std::from_chars(text.data(), end, value);
-    return !text.empty() && res.ec == std::errc() && res.ptr == end;
-}
 
 /// The shortest text that reads back as exactly `v`.
 std::string shortest(double v) {
@@ -60,20 +51,7 @@ std::string shortest(double v) {
     return std::string(buf, res.ptr);
 }
 
-/// Every digit (job texts: the worker must run exactly the controller's value).
-std::string exact(double v) {
-    char buf[64];
-    std::snprintf(buf, sizeof buf, "%.17g", v);
-    return buf;
-}
 
-/// 10 significant digits, as sweep.csv (calibration.csv).
-std::string cell(double v) {
-    if (!std::isfinite(v)) return "";
-    char buf[64];
-    std::snprintf(buf, sizeof buf, "%.10g", v);
-    return buf;
-}
 
 std::string trim(const std::string& s) {
     const auto a = s.find_first_not_of(" \t\r");
@@ -82,14 +60,6 @@ std::string trim(const std::string& s) {
     return s.substr(a, b - a + 1);
 }
 
-std::vector<std::string> splitOn(const std::string& s, char sep) {
-    std::vector<std::string> out(1);
-    for (const char c : s) {
-        if (c == sep) out.emplace_back();
-        else out.back() += c;
-    }
-    return out;
-}
 
 bool isName(const std::string& s) {
     if (s.empty() || !(std::isalpha(static_cast<unsigned char>(s[0])) || s[0] == '_')) return false;
@@ -426,7 +396,7 @@ std::string runJob(const CalibrationSetup& s, const std::string& job, std::atomi
         if (!value || !std::isfinite(*value))
             throw std::runtime_error(s.observable == Observable::Speed ? "nobody was in the measurement area"
                                                                         : "not everybody reached the exit before the end time");
-        return "ok " + exact(*value);
+        return "ok " + exactNumber(*value);
     } catch (const std::exception& e) {
         return std::string("failed ") + e.what();
     }
@@ -807,14 +777,14 @@ int calibrateCommand(int argc, char* argv[]) {
         std::size_t best = std::numeric_limits<std::size_t>::max();
         auto describe = [&](const std::vector<double>& v) {
             std::string t;
-            for (std::size_t k = 0; k < p; ++k) t += (k ? " " : "") + s.fits[k].target + "=" + cell(v[k]);
+            for (std::size_t k = 0; k < p; ++k) t += (k ? " " : "") + s.fits[k].target + "=" + csvCell(v[k]);
             return t;
         };
         auto progressLine = [&](std::size_t done, std::size_t total) {
             std::string t = "calibrate: evaluation " + std::to_string(evaluations.size()) + ", runs " + std::to_string(done) +
                             "/" + std::to_string(total);
             if (best < evaluations.size())
-                t += " | best " + cell(evaluations[best].objective) + " at " + describe(evaluations[best].values);
+                t += " | best " + csvCell(evaluations[best].objective) + " at " + describe(evaluations[best].values);
             t += " | " + formatDuration(std::chrono::duration<double>(std::chrono::steady_clock::now() - wallStart).count());
             return t;
         };
@@ -826,7 +796,7 @@ int calibrateCommand(int argc, char* argv[]) {
                 for (std::size_t c = 0; c < conditions; ++c)
                     for (std::size_t k = 0; k < seeds; ++k) {
                         std::string j = std::to_string(c) + " " + std::to_string(firstSeed + k);
-                        for (const double v : x) j += " " + exact(v);
+                        for (const double v : x) j += " " + exactNumber(v);
                         jobs.push_back(std::move(j));
                     }
             std::vector<std::string> results(jobs.size());
@@ -996,8 +966,8 @@ int calibrateCommand(int argc, char* argv[]) {
         for (std::size_t k = 0; k < evaluations.size(); ++k) {
             const Evaluation& e = evaluations[k];
             csv += std::to_string(k) + "," + e.step;
-            for (const double v : e.values) csv += "," + cell(v);
-            csv += "," + cell(e.objective) + "," + (e.error.empty() ? "ok" : "failed") + "\n";
+            for (const double v : e.values) csv += "," + csvCell(v);
+            csv += "," + csvCell(e.objective) + "," + (e.error.empty() ? "ok" : "failed") + "\n";
         }
         double weightSum = 0;
         for (const CalibrationData::Row& r : data->rows) weightSum += r.weight;
@@ -1106,11 +1076,11 @@ int calibrateCommand(int argc, char* argv[]) {
                       << " for the errors, " << evaluations.size() * conditions * seeds << " runs in "
                       << formatDuration(wallSeconds) << "\n";
             for (std::size_t k = 0; k < p; ++k)
-                std::cout << "  " << s.fits[k].target << " = " << cell(fitted.values[k]) << " +/- "
-                          << (std::isfinite(seFit[k]) ? cell(seFit[k]) : "?") << " (seeds: +/- "
-                          << (std::isfinite(seSeeds[k]) ? cell(seSeeds[k]) : "?") << ")\n";
+                std::cout << "  " << s.fits[k].target << " = " << csvCell(fitted.values[k]) << " +/- "
+                          << (std::isfinite(seFit[k]) ? csvCell(seFit[k]) : "?") << " (seeds: +/- "
+                          << (std::isfinite(seSeeds[k]) ? csvCell(seSeeds[k]) : "?") << ")\n";
             if (!errorNote.empty()) std::cout << "  errors: " << errorNote << "\n";
-            std::cout << "  objective " << cell(fitted.objective) << ", rms residual " << cell(std::sqrt(fitted.objective / weightSum))
+            std::cout << "  objective " << csvCell(fitted.objective) << ", rms residual " << csvCell(std::sqrt(fitted.objective / weightSum))
                       << "\n  output  " << (output / "calibration.csv").string() << ", "
                       << (output / "calibration-result.json").string();
             if (plotted) std::cout << ", " << (output / "calibration.png").string();

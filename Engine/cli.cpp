@@ -1,5 +1,6 @@
 // crowdhealth — command-line parsing (see cli.h).
 #include "cli.h"
+#include "text_numbers.h"
 
 #include <crowdhealth/core/scenario.h>
 
@@ -19,20 +20,6 @@ namespace chcli {
 namespace po = boost::program_options;
 
 namespace {
-
-// Numbers are taken as strings and checked here: Boost's lexical_cast would turn "--seed -1"
-// into 18446744073709551615 and accept "-t 2abc" in some versions.
-bool parseUnsigned(const std::string& text, std::uint64_t& value) {
-    const char* end = text.data() + text.size();
-    const auto res = std::from_chars(text.data(), end, value);
-    return !text.empty() && res.ec == std::errc() && res.ptr == end;
-}
-
-bool parseDouble(const std::string& text, double& value) {
-    const char* end = text.data() + text.size();
-    const auto res = std::from_chars(text.data(), end, value);
-    return !text.empty() && res.ec == std::errc() && res.ptr == end;
-}
 
 po::options_description visibleOptions() {
     po::options_description d("Options");

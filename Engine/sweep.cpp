@@ -3,6 +3,7 @@
 
 #include "exit_codes.h"
 #include "job_pool.h"
+#include "text_numbers.h"
 
 #include <crowdhealth/core/plugins.h>
 #include "plot_gnuplot.h"
@@ -62,47 +63,11 @@ std::optional<double> outputValue(const SweepResult& r, std::size_t k) {
     }
 }
 
-bool parseDouble(const std::string& text, double& value) {
-    const char* end = text.data() + text.size();
-    const auto res = std::from_chars(text.data(), end, value);
-    return !text.empty() && res.ec == std::errc() && res.ptr == end && std::isfinite(value);
-}
 
-bool parseUnsigned(const std::string& text, std::uint64_t& value) {
-    const char* end = text.data() + text.size();
-    const auto res = std::from_chars(text.data(), end, value);
-    return !text.empty() && res.ec == std::errc() && res.ptr == end;
-}
 
-/// 10 significant digits, as summary.csv of --replications; whole numbers without a point.
-std::string cell(double v) {
-    if (!std::isfinite(v)) return "";
-    char buf[64];
-    std::snprintf(buf, sizeof buf, "%.10g", v);
-    return buf;
-}
-std::string cell(const std::optional<double>& v) { return v ? cell(*v) : std::string(); }
+std::string cell(const std::optional<double>& v) { return v ? csvCell(*v) : std::string(); }
 
-std::string exact(double v) {
-    char buf[64];
-    std::snprintf(buf, sizeof buf, "%.17g", v);
-    return buf;
-}
 
-std::vector<std::string> splitOn(const std::string& s, char sep) {
-    std::vector<std::string> out;
-    std::string cur;
-    for (const char c : s) {
-        if (c == sep) {
-            out.push_back(cur);
-            cur.clear();
-        } else {
-            cur += c;
-        }
-    }
-    out.push_back(cur);
-    return out;
-}
 
 /// "run_000017": as many digits as the largest id needs, at least six.
 std::string runName(std::size_t id, std::size_t total) {
@@ -192,15 +157,15 @@ std::vector<SweepRun> expandSweep(const std::vector<SweepAxis>& axes, std::uint6
 std::string sweepRecordText(const SweepRun& run, const SweepResult& r) {
     std::ostringstream s;
     s << "id " << run.id << "\nseed " << run.seed << "\n";
-    for (const double v : run.values) s << "value " << exact(v) << "\n";
+    for (const double v : run.values) s << "value " << exactNumber(v) << "\n";
     s << "evacuated " << r.evacuated << "\n"
-      << "evacuation_time " << (r.evacuationTime ? exact(*r.evacuationTime) : "-") << "\n"
-      << "flow " << (r.flow ? exact(*r.flow) : "-") << "\n"
-      << "peak_density " << exact(r.peakDensity) << "\n"
-      << "peak_contact_accel " << exact(r.peakContactAccel) << "\n"
+      << "evacuation_time " << (r.evacuationTime ? exactNumber(*r.evacuationTime) : "-") << "\n"
+      << "flow " << (r.flow ? exactNumber(*r.flow) : "-") << "\n"
+      << "peak_density " << exactNumber(r.peakDensity) << "\n"
+      << "peak_contact_accel " << exactNumber(r.peakContactAccel) << "\n"
       << "injured " << r.injured << "\n"
       << "verdict " << r.verdict << "\n"
-      << "wall_time " << exact(r.wallTime) << "\n"
+      << "wall_time " << exactNumber(r.wallTime) << "\n"
       << "end\n";
     return s.str();
 }
@@ -226,7 +191,7 @@ std::optional<SweepResult> parseSweepRecord(const std::string& text, const Sweep
         values.size() != run.values.size())
         return std::nullopt;
     for (std::size_t k = 0; k < values.size(); ++k)
-        if (values[k] != exact(run.values[k])) return std::nullopt;
+        if (values[k] != exactNumber(run.values[k])) return std::nullopt;
     SweepResult r;
     r.ok = true;
     std::uint64_t u = 0;
@@ -541,7 +506,7 @@ std::string sweepResultText(const SweepRun& run, const SweepResult& r) {
     if (r.ok) return sweepRecordText(run, r);
     std::string why = r.error;
     std::replace(why.begin(), why.end(), '\n', ' ');
-    return "failed\nwall_time " + exact(r.wallTime) + "\nerror " + why + "\n";
+    return "failed\nwall_time " + exactNumber(r.wallTime) + "\nerror " + why + "\n";
 }
 
 /// The result of `run` from sweepResultText. Text that reads as neither is a failed run.
@@ -643,11 +608,11 @@ std::string argumentsText(const SweepSettings& s, std::uint64_t firstSeed) {
     std::string t = "crowdhealth sweep 1\nscenario " + scenario.string() + "\nscenario_content " + fileHash(s.input) + "\n";
     for (const SweepAxis& a : s.axes) {
         t += "vary " + a.target + "=";
-        for (std::size_t k = 0; k < a.values.size(); ++k) t += (k ? "," : "") + exact(a.values[k]);
+        for (std::size_t k = 0; k < a.values.size(); ++k) t += (k ? "," : "") + exactNumber(a.values[k]);
         t += "\n";
     }
     t += "replications " + std::to_string(s.replications) + "\nseed " + std::to_string(firstSeed) + "\n";
-    t += "end_time " + (s.endTime ? exact(*s.endTime) : std::string("scenario")) + "\n";
+    t += "end_time " + (s.endTime ? exactNumber(*s.endTime) : std::string("scenario")) + "\n";
     return t;
 }
 

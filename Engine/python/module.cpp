@@ -4,6 +4,7 @@
 // metrics.csv is byte-identical to `crowdhealth -i … -o …` with the same seed.
 #include "../scenario_run.h"
 #include "../output_folder.h"
+#include "../text_numbers.h"
 
 #include <crowdhealth/core/plugins.h>
 #include <crowdhealth/core/registry.h>
@@ -49,20 +50,6 @@ fs::path makeTempFolder() {
     return fs::path(pattern);
 }
 
-std::vector<std::string> split(const std::string& s, char sep) {
-    std::vector<std::string> out;
-    std::string cur;
-    for (char c : s) {
-        if (c == sep) {
-            out.push_back(cur);
-            cur.clear();
-        } else {
-            cur += c;
-        }
-    }
-    out.push_back(cur);
-    return out;
-}
 
 py::object jsonLoads(const std::string& text) { return py::module_::import("json").attr("loads")(text); }
 
@@ -90,7 +77,7 @@ public:
                                                        threads);
         session_->begin();
         if (!warnings_.empty()) {
-            for (const std::string& line : split(warnings_, '\n'))
+            for (const std::string& line : chcli::splitOn(warnings_, '\n'))
                 if (PyErr_WarnEx(g_scenarioWarning, line.c_str(), 1) != 0) throw py::error_already_set();
         }
     }
@@ -279,7 +266,7 @@ public:
     /// The metrics.csv columns so far (the final row once the run has ended or its outputs were written).
     py::dict metrics() const {
         const auto& rows = session_->metrics().rows();
-        const std::vector<std::string> header = split(ch::kMetricsHeader, ',');
+        const std::vector<std::string> header = chcli::splitOn(ch::kMetricsHeader, ',');
         const py::ssize_t n = static_cast<py::ssize_t>(rows.size());
         py::dict out;
         auto real = [&](const char* name, auto get) {
@@ -463,5 +450,5 @@ PYBIND11_MODULE(_crowdhealth, m) {
           "loads a plugin (shared library of cost functions and forces, docs/adding-a-policy.md); "
           "returns the names it added; raises ScenarioError when it cannot be loaded");
     m.def("list_policies", &listPolicies, "every registered cost function and force with its parameters");
-    m.attr("metrics_columns") = py::cast(split(ch::kMetricsHeader, ','));
+    m.attr("metrics_columns") = py::cast(chcli::splitOn(ch::kMetricsHeader, ','));
 }
