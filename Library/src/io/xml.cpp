@@ -320,6 +320,20 @@ std::optional<std::string> notXmlText(const std::string& path) {
     return std::nullopt;
 }
 
+/// The syntax error tinyxml2 found in `doc` (read from `path`) as a diagnostic at its line;
+/// returns false (for the callers' `return`).
+bool reportSyntaxError(LoadContext& ctx, const std::string& path, const tinyxml2::XMLDocument& doc) {
+    // tinyxml2's ErrorStr() is "Error=NAME ErrorID=N (0xN) Line number=L[: detail]"; keep the detail.
+    std::string detail = doc.ErrorStr() != nullptr ? doc.ErrorStr() : "";
+    const auto lineTag = detail.find("Line number=");
+    const auto colon = lineTag == std::string::npos ? std::string::npos : detail.find(": ", lineTag);
+    detail = colon == std::string::npos ? "" : detail.substr(colon + 2);
+    std::string msg = "XML syntax error: " + friendlyErrorName(doc.ErrorName());
+    if (!detail.empty()) msg += " (" + detail + ")";
+    ctx.diags.error(SourceLoc{path, doc.ErrorLineNum()}, msg);
+    return false;
+}
+
 /// Loads and parses `path`. Reports a missing file at `namedBy` (the element whose file= names
 /// it) when given, and a syntax error at the line tinyxml2 stopped on.
 bool loadDocument(LoadContext& ctx, const std::string& path, const SourceLoc* namedBy,
@@ -355,15 +369,7 @@ bool loadDocument(LoadContext& ctx, const std::string& path, const SourceLoc* na
         ctx.diags.error(where, "cannot read " + what);
         return false;
     }
-    // tinyxml2's ErrorStr() is "Error=NAME ErrorID=N (0xN) Line number=L[: detail]"; keep the detail.
-    std::string detail = doc.ErrorStr() != nullptr ? doc.ErrorStr() : "";
-    const auto lineTag = detail.find("Line number=");
-    const auto colon = lineTag == std::string::npos ? std::string::npos : detail.find(": ", lineTag);
-    detail = colon == std::string::npos ? "" : detail.substr(colon + 2);
-    std::string msg = "XML syntax error: " + friendlyErrorName(doc.ErrorName());
-    if (!detail.empty()) msg += " (" + detail + ")";
-    ctx.diags.error(SourceLoc{path, doc.ErrorLineNum()}, msg);
-    return false;
+    return reportSyntaxError(ctx, path, doc);
 }
 
 /// Parses `text` as the content of `path` (LoadOptions::text), with loadDocument's messages.
@@ -374,14 +380,7 @@ bool parseDocumentText(LoadContext& ctx, const std::string& path, const std::str
         ctx.diags.error(SourceLoc{path, 1}, "the file holds no XML element");
         return false;
     }
-    std::string detail = doc.ErrorStr() != nullptr ? doc.ErrorStr() : "";
-    const auto lineTag = detail.find("Line number=");
-    const auto colon = lineTag == std::string::npos ? std::string::npos : detail.find(": ", lineTag);
-    detail = colon == std::string::npos ? "" : detail.substr(colon + 2);
-    std::string msg = "XML syntax error: " + friendlyErrorName(doc.ErrorName());
-    if (!detail.empty()) msg += " (" + detail + ")";
-    ctx.diags.error(SourceLoc{path, doc.ErrorLineNum()}, msg);
-    return false;
+    return reportSyntaxError(ctx, path, doc);
 }
 
 void readBlock(LoadContext& ctx, const std::string& file, const XMLElement* el, Block kind, bool external);
