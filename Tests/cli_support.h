@@ -100,12 +100,14 @@ inline Result runIn(const fs::path& dir, const std::string& prefix, const std::s
 /// Runs `crowdhealth args…` with `dir` as working folder (see runIn).
 inline Result run(const fs::path& dir, const std::vector<std::string>& args) { return runIn(dir, "", CH_BINARY, args); }
 
-/// `crowdhealth args…` started in the background (fork + exec) with `dir` as working folder,
-/// stdout and stderr into dir/_stdout.txt and dir/_stderr.txt; for tests that send signals.
+/// `crowdhealth args…` (or `program args…`) started in the background (fork + exec) with `dir` as
+/// working folder, stdout and stderr into dir/_stdout.txt and dir/_stderr.txt; for tests that send
+/// signals.
 class Background {
 public:
-    Background(const fs::path& dir, const std::vector<std::string>& args) : dir_(dir) {
-        std::vector<std::string> argv = {CH_BINARY};
+    Background(const fs::path& dir, const std::vector<std::string>& args) : Background(dir, CH_BINARY, args) {}
+    Background(const fs::path& dir, const std::string& program, const std::vector<std::string>& args) : dir_(dir) {
+        std::vector<std::string> argv = {program};
         argv.insert(argv.end(), args.begin(), args.end());
         const std::string out = (dir / "_stdout.txt").string(), err = (dir / "_stderr.txt").string();
         pid_ = fork();

@@ -111,45 +111,27 @@ const fs::path& localGrid() {
     return dir;
 }
 
+/// mpirun, allowed to run as root, ending every rank when one fails (its default).
+std::string mpirunForBackground() {
+    allowRoot();
+    unsetenv("OMPI_MCA_orte_abort_on_non_zero_status");
+    return CH_MPIRUN;
+}
+
 /// `mpirun …` in the background, for the tests that kill it.
-class MpiBackground {
+class MpiBackground : public Background {
 public:
-    MpiBackground(const fs::path& dir, std::vector<std::string> args) {
-        allowRoot();
-        unsetenv("OMPI_MCA_orte_abort_on_non_zero_status");
-        args.insert(args.begin(), CH_MPIRUN);
-        const std::string out = (dir / "_stdout.txt").string(), err = (dir / "_stderr.txt").string();
-        pid_ = fork();
-        if (pid_ == 0) {
-            if (chdir(dir.c_str()) != 0) _exit(127);
-            const int o = open(out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-            const int e = open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-            const int in = open("/dev/null", O_RDONLY);
-            if (o < 0 || e < 0 || in < 0) _exit(127);
-            dup2(o, 1); dup2(e, 2); dup2(in, 0);
-            std::vector<char*> a;
-            for (std::string& s : args) a.push_back(s.data());
-            a.push_back(nullptr);
-            execv(a[0], a.data());
-            _exit(127);
-        }
-    }
-    ~MpiBackground() {
-        if (pid_ > 0 && !reaped_) { ::kill(pid_, SIGKILL); waitpid(pid_, nullptr, 0); }
-    }
-    MpiBackground(const MpiBackground&) = delete;
-    MpiBackground& operator=(const MpiBackground&) = delete;
-    void signal(int signo) const { ::kill(pid_, signo); }
+    MpiBackground(const fs::path& dir, const std::vector<std::string>& args) : Background(dir, mpirunForBackground(), args) {}
     /// The process of MPI rank `rank` (a child of mpirun, found through /proc), or -1.
     pid_t rankPid(int rank) const {
         for (const auto& e : fs::directory_iterator("/proc")) {
             const std::string name = e.path().filename().string();
             if (name.find_first_not_of("0123456789") != std::string::npos) continue;
             std::istringstream stat(readFile(e.path() / "stat"));
-            std::string pid, comm, state;
+            std::string own, comm, state;
             pid_t parent = 0;
-            stat >> pid >> comm >> state >> parent;
-            if (parent != pid_) continue;
+            stat >> own >> comm >> state >> parent;
+            if (parent != pid()) continue;
             std::string environ = readFile(e.path() / "environ");
             std::replace(environ.begin(), environ.end(), '\0', '\n');
             if (("\n" + environ).find("\nOMPI_COMM_WORLD_RANK=" + std::to_string(rank) + "\n") != std::string::npos)
@@ -157,18 +139,6 @@ public:
         }
         return -1;
     }
-    int wait() {
-        int raw = 0;
-        waitpid(pid_, &raw, 0);
-        reaped_ = true;
-        if (WIFEXITED(raw)) return WEXITSTATUS(raw);
-        if (WIFSIGNALED(raw)) return 1000 + WTERMSIG(raw);
-        return -1;
-    }
-
-private:
-    pid_t pid_ = -1;
-    bool reaped_ = false;
 };
 
 }  // namespace
