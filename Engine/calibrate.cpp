@@ -2,10 +2,10 @@
 #include "calibrate.h"
 
 #include "exit_codes.h"
+#include "cli.h"
 #include "job_pool.h"
 #include "text_numbers.h"
 
-#include <crowdhealth/core/plugins.h>
 #include "nelder_mead.h"
 #include "plot_gnuplot.h"
 #include "progress.h"
@@ -554,14 +554,7 @@ int calibrateCommand(int argc, char* argv[]) {
     if (!vm.count("fit")) return usage("nothing to fit: give at least one --fit TARGET=LO:HI");
     if (!vm.count("data") || str("data").empty()) return usage("no data given: use --data FILE");
 
-    if (vm.count("plugin"))
-        for (const std::string& f : vm["plugin"].as<std::vector<std::string>>()) {
-            const ch::PluginLoad load = ch::loadPlugin(ch::findPlugin(f, ""));
-            if (!load.ok) {
-                err << "crowdhealth: error: --plugin '" << f << "': " << load.error << "\n";
-                return kExitInput;
-            }
-        }
+    if (vm.count("plugin") && !loadPlugins(vm["plugin"].as<std::vector<std::string>>(), err)) return kExitInput;
     CalibrationSetup s;
     s.input = str("input");
     const std::string dataPath = str("data");

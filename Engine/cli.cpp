@@ -2,6 +2,7 @@
 #include "cli.h"
 #include "text_numbers.h"
 
+#include <crowdhealth/core/plugins.h>
 #include <crowdhealth/core/scenario.h>
 
 #include <boost/program_options.hpp>
@@ -268,6 +269,17 @@ std::optional<Options> parseCommandLine(int argc, const char* const argv[], std:
         o.interruptAfterSteps = n;
     }
     return o;
+}
+
+bool loadPlugins(const std::vector<std::string>& files, std::ostream& err) {
+    for (const std::string& file : files) {
+        const ch::PluginLoad load = ch::loadPlugin(ch::findPlugin(file, ""));
+        if (!load.ok) {
+            err << "crowdhealth: error: --plugin '" << file << "': " << load.error << "\n";
+            return false;
+        }
+    }
+    return true;
 }
 
 }  // namespace chcli

@@ -53,6 +53,11 @@ struct Options {
 /// to --help) to `err` and returns std::nullopt (the caller exits with status 2).
 std::optional<Options> parseCommandLine(int argc, const char* const argv[], std::ostream& err);
 
+/// Loads the plugins of --plugin FILE (relative to the working folder, else CROWDHEALTH_PLUGIN_PATH).
+/// On the first one refused prints "crowdhealth: error: --plugin 'FILE': why" to `err` and returns
+/// false (the caller exits with status 2).
+bool loadPlugins(const std::vector<std::string>& files, std::ostream& err);
+
 /// The --help text.
 void printHelp(std::ostream& out);
 /// The --version line.

@@ -11,8 +11,6 @@
 #include "sweep.h"
 #include "verify.h"
 
-#include <crowdhealth/core/plugins.h>
-
 #include <exception>
 #include <iostream>
 #include <string_view>
@@ -33,13 +31,7 @@ int main(int argc, char* argv[]) {
         if (argc > 1 && std::string_view(argv[1]) == "calibrate") return calibrateCommand(argc - 1, argv + 1);
         const std::optional<Options> options = parseCommandLine(argc, argv, std::cerr);
         if (!options) return kExitInput;
-        for (const std::string& file : options->plugins) {
-            const ch::PluginLoad load = ch::loadPlugin(ch::findPlugin(file, ""));
-            if (!load.ok) {
-                std::cerr << "crowdhealth: error: --plugin '" << file << "': " << load.error << "\n";
-                return kExitInput;
-            }
-        }
+        if (!loadPlugins(options->plugins, std::cerr)) return kExitInput;
         switch (options->command) {
             case Command::Help: printHelp(std::cout); return kExitOk;
             case Command::Version: printVersion(std::cout); return kExitOk;

@@ -1,11 +1,11 @@
 // crowdhealth sweep — see sweep.h and docs/sweeps.md.
 #include "sweep.h"
 
+#include "cli.h"
 #include "exit_codes.h"
 #include "job_pool.h"
 #include "text_numbers.h"
 
-#include <crowdhealth/core/plugins.h>
 #include "plot_gnuplot.h"
 #include "progress.h"
 #include "scenario_run.h"
@@ -747,14 +747,7 @@ int sweepCommand(int argc, char* argv[]) {
     JobPool pool(work, poolOptions);
 
     const int checked = [&]() -> int {
-        if (vm.count("plugin"))
-            for (const std::string& f : vm["plugin"].as<std::vector<std::string>>()) {
-                const ch::PluginLoad load = ch::loadPlugin(ch::findPlugin(f, ""));
-                if (!load.ok) {
-                    std::cerr << "crowdhealth: error: --plugin '" << f << "': " << load.error << "\n";
-                    return kExitInput;
-                }
-            }
+        if (vm.count("plugin") && !loadPlugins(vm["plugin"].as<std::vector<std::string>>(), std::cerr)) return kExitInput;
         const Options base = runOptions(s, s.keepRuns);
         first = loadSpec(base, s.seed, true);
         if (!first) return kExitInput;
