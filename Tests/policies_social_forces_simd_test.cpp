@@ -2,7 +2,7 @@
 // against std::exp, and the whole agent force against the scalar pair force summed in list order,
 // for every combination of the model's switches and lists of every length modulo the lane count.
 #define BOOST_TEST_MODULE policies_social_forces_simd
-#include <boost/test/included/unit_test.hpp>
+#include <boost/test/unit_test.hpp>
 
 #include "test_support.h"
 
