@@ -74,7 +74,9 @@ struct StepContext {
     double maxRadius = 0;
 
     /// Calls f(j, offset, distanceSquared) for every other agent j within `radius` of agent i, in
-    /// the grid's visit order. Reads the step's neighbour list when it reaches far enough, else
+    /// a fixed order that does not depend on the thread count: the order of the step's list (the
+    /// visit order of the grid it was gathered from; lists of 2 m and more come from a finer grid
+    /// of their own, core/neighbours.h), else the step grid's visit order. Reads the step's neighbour list when it reaches far enough, else
     /// queries the grid: the same agents, offsets and squared distances either way (the same
     /// test, |offset|² <= radius², decides).
     template <class F>
