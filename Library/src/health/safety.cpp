@@ -21,6 +21,23 @@ namespace {
 int cellIndex(double v, double c) { return static_cast<int>(std::floor(v / c)); }
 
 std::string fmt(double v, int digits = 3) { return formatNumber(v, digits); }
+
+/// e[l] = e^{s·d2[l]} for l < n (n a multiple of simd::kLanes, s·d2 ≤ 0), simd::expNonPositive
+/// four at a time: the crowd field's Gaussian weights. Compiled twice, like SocialForcesAvoidance's
+/// pair loop (one AVX2 register per four doubles where the CPU has AVX2, two SSE2 registers
+/// otherwise, chosen when the program starts): the same operations without fused multiply-add,
+/// so both give the same bits.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+__attribute__((target_clones("avx2", "default")))
+#endif
+void gaussianWeights(const double* d2, double* e, std::size_t n, double s) {
+    for (std::size_t l = 0; l < n; l += simd::kLanes) {
+        simd::DV v;
+        std::memcpy(&v, d2 + l, sizeof v);
+        v = simd::expNonPositive(v * simd::splat(s));
+        std::memcpy(e + l, &v, sizeof v);
+    }
+}
 }  // namespace
 
 const ParamTable& safetyTable() {
@@ -177,19 +194,17 @@ CrowdField crowdField(const AgentStore& agents, double cellSize, double R) {
         // last bits (the product of two rounded exponentials, each within 5e-16). (The query per
         // cell with glibc's exp was ~8 % of a 10k-agent social-forces run, issue 20.)
         const int x0 = f.ix.front(), y0 = f.iy.front(), ny = f.iy.back() - y0 + 1;
-        std::vector<double> sw(cells, 0.0), swx(cells, 0.0), swy(cells, 0.0);
+        struct Sums {
+            double w = 0, wx = 0, wy = 0;  // Σ weight, Σ weight · velocity
+        };
+        std::vector<Sums> sums(cells);
         const double r2 = reach * reach;
         // The columns and rows of the reach box: those whose centre may lie within reach.
         const std::size_t box = static_cast<std::size_t>(std::ceil(2 * reach / cellSize)) + 2 + simd::kLanes;
-        std::vector<double> dx2(box), dy2(box), ex(box), ey(box);
-        auto weights = [&](std::vector<double>& d2, std::vector<double>& e, int n) {
-            for (int l = 0; l < n; l += simd::kLanes) {
-                simd::DV v;
-                std::memcpy(&v, d2.data() + l, sizeof v);
-                v = simd::expNonPositive(v * simd::splat(-invR2));
-                std::memcpy(e.data() + l, &v, sizeof v);
-            }
-        };
+        // d² of the columns, then (from a multiple of the lanes) those of the rows, in one buffer: one
+        // call for both.
+        std::vector<double> d2(2 * box, 0.0), e(2 * box, 0.0);
+        auto lanes = [](int m) { return (m + simd::kLanes - 1) / simd::kLanes * simd::kLanes; };
         for (std::size_t i = 0; i < n; ++i) {
             const Vec2 p = agents.pos[i], v = agents.vel[i];
             const int xa = std::max(x0, cellIndex(p.x() - reach, cellSize));
@@ -198,36 +213,41 @@ CrowdField crowdField(const AgentStore& agents, double cellSize, double R) {
             const int yb = std::min(y0 + ny - 1, cellIndex(p.y() + reach, cellSize));
             if (xa > xb || ya > yb) continue;
             const int mx = xb - xa + 1, my = yb - ya + 1;
+            const std::size_t rows = static_cast<std::size_t>(lanes(mx));
+            double* const dx2 = d2.data();
+            double* const dy2 = d2.data() + rows;
             for (int k = 0; k < mx; ++k) {
                 const double d = p.x() - (xa + k + 0.5) * cellSize;
-                dx2[static_cast<std::size_t>(k)] = d * d;
+                dx2[k] = d * d;
             }
             for (int k = 0; k < my; ++k) {
                 const double d = p.y() - (ya + k + 0.5) * cellSize;
-                dy2[static_cast<std::size_t>(k)] = d * d;
+                dy2[k] = d * d;
             }
-            weights(dx2, ex, mx);
-            weights(dy2, ey, my);
+            gaussianWeights(d2.data(), e.data(), rows + static_cast<std::size_t>(lanes(my)), -invR2);
+            const double* const ex = e.data();
+            const double* const ey = e.data() + rows;
             for (int ky = 0; ky < my; ++ky) {
-                const double yy = dy2[static_cast<std::size_t>(ky)];
+                const double yy = dy2[ky];
                 if (yy > r2) continue;
-                const double wy = ey[static_cast<std::size_t>(ky)];
+                const double wy = ey[ky];
                 const std::size_t row = static_cast<std::size_t>(ya + ky - y0) * static_cast<std::size_t>(nx) +
                                         static_cast<std::size_t>(xa - x0);
+                // Without a branch: a cell beyond reach adds +0 or −0, which leaves every sum as it
+                // was (a sum that is still +0 stays +0), so the bits are those of skipping it.
                 for (int kx = 0; kx < mx; ++kx) {
-                    if (!(dx2[static_cast<std::size_t>(kx)] + yy <= r2)) continue;
-                    const double w = ex[static_cast<std::size_t>(kx)] * wy;
-                    const std::size_t c = row + static_cast<std::size_t>(kx);
-                    sw[c] += w;
-                    swx[c] += w * v.x();
-                    swy[c] += w * v.y();
+                    const double w = dx2[kx] + yy <= r2 ? ex[kx] * wy : 0.0;
+                    Sums& c = sums[row + static_cast<std::size_t>(kx)];
+                    c.w += w;
+                    c.wx += w * v.x();
+                    c.wy += w * v.y();
                 }
             }
         }
         for (std::size_t c = 0; c < cells; ++c) {
-            if (!(sw[c] > 0)) continue;
-            f.density[c] = norm * sw[c];
-            f.velocity[c] = Vec2(swx[c], swy[c]) / sw[c];
+            if (!(sums[c].w > 0)) continue;
+            f.density[c] = norm * sums[c].w;
+            f.velocity[c] = Vec2(sums[c].wx, sums[c].wy) / sums[c].w;
             f.weighted[c] = 1;
         }
         return f;
@@ -318,7 +338,8 @@ bool SafetyRecorder::cover(int x0, int y0, int x1, int y1) {
 }
 
 SafetyRecorder::Cell& SafetyRecorder::cellAt(int x, int y) {
-    if (!cover(x, y, x, y)) return sparseCells_[{y, x}];
+    const bool inside = !sparse_ && x >= gx0_ && y >= gy0_ && x < gx0_ + gnx_ && y < gy0_ + gny_;
+    if (!inside && !cover(x, y, x, y)) return sparseCells_[{y, x}];
     const std::size_t k =
         static_cast<std::size_t>(y - gy0_) * static_cast<std::size_t>(gnx_) + static_cast<std::size_t>(x - gx0_);
     if (!present_[k]) {
