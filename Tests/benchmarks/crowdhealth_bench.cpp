@@ -756,6 +756,147 @@ Result inChild(const std::function<Result()>& f, bool fork) {
     return r;
 }
 
+// ---------------------------------------------------------------------------------------------
+// The program as users run it against the bare step (issue 20): the same scene as an XML file,
+// run by `crowdhealth` (metrics, safety recorder, verdict, evacuations, summary: the defaults;
+// trajectories off), against Simulation::stepCoarse() alone in this program, one thread each.
+
+/// The dense-sph scene (denseSph(n)) as a crowdhealth scenario file, as a user would write it:
+/// delta_time 0.1 s with fine steps of 0.02 s (the policy has fine steps only, so the motion is the
+/// bench's, whose coarse step is one fine step), walls as the same polygons, every agent attribute
+/// written out to the last bit.
+void writeDenseSphScenario(const std::filesystem::path& file, std::size_t n, double endTime) {
+    const ScenarioSpec s = denseSph(n);
+    std::ofstream out(file);
+    char buf[512];
+    std::snprintf(buf, sizeof buf, "<Simulation delta_time=\"0.1\" delta_time_fine=\"%g\" end_time=\"%g\">\n",
+                  s.deltaTimeFine, endTime);
+    out << "<?xml version=\"1.0\" encoding=\"utf-8\"?>\n<!-- crowdhealth-bench: the dense-sph scene -->\n" << buf
+        << "\t<World type=\"Infinite\">\n";
+    for (const ObstacleSpec& o : s.obstacles) {
+        out << "\t\t<Obstacle>";
+        for (const Vec2& q : o.points) {
+            std::snprintf(buf, sizeof buf, "<Point x=\"%.17g\" y=\"%.17g\"/>", q.x(), q.y());
+            out << buf;
+        }
+        out << "</Obstacle>\n";
+    }
+    out << "\t</World>\n"
+           "\t<Policies>\n"
+           "\t\t<Policy id=\"0\">\n"
+           "\t\t\t<Step DeltaTime=\"fine\" OptimizationMethod=\"gradient\" RelaxationTime=\"0.5\">\n"
+           "\t\t\t\t<CostFunction name=\"GoalReachingForce\" range=\"0\" strength=\"1\" />\n"
+           "\t\t\t\t<CostFunction name=\"SPH\" range=\"1\" />\n"
+           "\t\t\t\t<CostFunction name=\"ContactForces\" range=\"1\" />\n"
+           "\t\t\t</Step>\n"
+           "\t\t</Policy>\n"
+           "\t</Policies>\n"
+           "\t<Agents>\n";
+    for (const AgentSpec& a : s.agents) {
+        std::snprintf(buf, sizeof buf,
+                      "\t\t<Agent rad=\"%.17g\" mass=\"%.17g\" pref_speed=\"%g\" max_speed=\"%g\" max_acceleration=\"%g\" "
+                      "remove_at_goal=\"true\" goal_radius=\"%g\"><pos x=\"%.17g\" y=\"%.17g\"/>"
+                      "<goal x=\"%.17g\" y=\"%.17g\"/><Policy id=\"0\"/></Agent>\n",
+                      a.radius, a.mass, a.prefSpeed, a.maxSpeed, a.maxAcceleration, a.goalRadius, a.position.x(),
+                      a.position.y(), a.goal->x(), a.goal->y());
+        out << buf;
+    }
+    out << "\t</Agents>\n</Simulation>\n";
+}
+
+/// CPU seconds of this process so far (every thread).
+double processCpuSeconds() {
+    timespec ts{};
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
+
+/// The bare step: `steps` calls of Simulation::stepCoarse() on the scene built in code, one thread,
+/// no recorder; msMedian = CPU ms per fine step (the mean over the steps, first included, as for
+/// the process), extra1 = CPU seconds of building the Simulation.
+Result runBareCpu(const std::string& scene, std::size_t n, int steps) {
+    Result r;
+    std::snprintf(r.kind, sizeof r.kind, "%s", "bare");
+    std::snprintf(r.scene, sizeof r.scene, "%s", scene.c_str());
+    r.n = static_cast<double>(n);
+    r.threads = 1;
+    const double c0 = processCpuSeconds();
+    auto sim = std::make_unique<Simulation>(scene == "dense-sph" ? denseSph(n) : socialForces(n));
+    sim->setThreads(1);
+    const double c1 = processCpuSeconds();
+    for (int k = 0; k < steps; ++k) sim->stepCoarse();
+    const double c2 = processCpuSeconds();
+    r.msMedian = 1e3 * (c2 - c1) / steps;
+    r.extra1 = c1 - c0;
+    r.hash = stateHash(sim->agents());
+    r.ok = true;
+    return r;
+}
+
+/// For each scene: `reps` times in turn, the bare step (in a child), the program on the scene's
+/// file for endTime simulated seconds, and the program stopped at 0.1 s (loading, the first
+/// records and the outputs: the fixed cost, plus one coarse step). Prints CPU ms per fine step:
+/// the bare step's, the whole program's (its CPU / steps), the marginal one (the difference of the
+/// two runs / the difference of their steps), and the ratios to the bare step.
+void runProcessCases(const std::string& crowdhealth, std::size_t n, int reps, bool quick, bool fork) {
+    namespace fs = std::filesystem;
+    const fs::path dir = fs::temp_directory_path() / ("crowdhealth-bench-process-" + std::to_string(getpid()));
+    fs::create_directories(dir);
+    struct Scene {
+        const char* name;
+        double endTime, fine;  // simulated s, fine step s
+    };
+    const Scene scenes[] = {{"social-forces", quick ? 1.0 : 10.0, 0.1}, {"dense-sph", quick ? 0.4 : 4.0, 0.02}};
+    for (const Scene& sc : scenes) {
+        const fs::path file = dir / (std::string(sc.name) + ".xml");
+        if (std::string(sc.name) == "dense-sph") writeDenseSphScenario(file, n, sc.endTime);
+        else writeUmansScenario(file, n, sc.endTime);
+        const int steps = static_cast<int>(std::lround(sc.endTime / sc.fine));
+        const int shortSteps = static_cast<int>(std::lround(0.1 / sc.fine));  // of the run stopped at 0.1 s
+        std::printf("\nprocess %s: %zu agents, %d fine steps of %g s, one thread; crowdhealth -i %s -o OUT -t 1 -q "
+                    "--trajectories none [--end-time 0.1]\n",
+                    sc.name, n, steps, sc.fine, file.c_str());
+        std::printf("%4s  %12s  %12s  %12s  %12s  %8s  %8s  %s\n", "rep", "bare ms/step", "whole ms/st", "fixed s",
+                    "marginal ms", "whole/b", "marg/b", "load");
+        std::vector<double> bare, whole, perStep, fixed;
+        bool ok = true;
+        for (int k = 0; k < reps && ok; ++k) {
+            const Result b = inChild([&] { return runBareCpu(sc.name, n, steps); }, fork);
+            const ProcessTime p = runProcess({crowdhealth, "-i", file.string(), "-o", (dir / "out").string(), "-t",
+                                              "1", "-q", "--trajectories", "none"},
+                                             dir / "crowdhealth.log");
+            const ProcessTime z = runProcess({crowdhealth, "-i", file.string(), "-o", (dir / "out0").string(), "-t",
+                                              "1", "-q", "--trajectories", "none", "--end-time", "0.1"},
+                                             dir / "crowdhealth0.log");
+            if (!b.ok || !p.ok || !z.ok) {
+                std::printf("  %s failed (logs in %s)\n", !b.ok ? "the bare step" : "crowdhealth", dir.c_str());
+                ok = false;
+                break;
+            }
+            double load[1] = {0};
+            if (getloadavg(load, 1) < 1) load[0] = -1;
+            bare.push_back(b.msMedian);
+            whole.push_back(1e3 * p.cpu / steps);
+            fixed.push_back(z.cpu);
+            perStep.push_back(1e3 * (p.cpu - z.cpu) / (steps - shortSteps));
+            std::printf("%4d  %12.2f  %12.2f  %12.2f  %12.2f  %7.2fx  %7.2fx  %.1f\n", k + 1, bare.back(), whole.back(),
+                        fixed.back(), perStep.back(), whole.back() / bare.back(), perStep.back() / bare.back(),
+                        load[0]);
+            std::fflush(stdout);
+        }
+        if (ok) {
+            std::printf("process %-14s %6zu   1  median: bare %.2f ms/step, whole process %.2f (%.2fx), marginal "
+                        "(fixed %.2f s apart) %.2f (%.2fx)\n",
+                        sc.name, n, median(bare), median(whole), median(whole) / median(bare), median(fixed),
+                        median(perStep), median(perStep) / median(bare));
+            for (const char* f : {"out", "out0", "crowdhealth.log", "crowdhealth0.log"}) fs::remove_all(dir / f);
+            fs::remove(file);
+        }
+    }
+    std::error_code ec;
+    if (fs::is_empty(dir, ec)) fs::remove_all(dir, ec);
+}
+
 std::vector<int> parseList(const std::string& s) {
     std::vector<int> out;
     std::stringstream ss(s);
@@ -771,7 +912,8 @@ void usage() {
                  "  --large         also the 1M-agent dense SPH crowd\n"
                  "  --threads LIST  thread counts, comma separated (default 1,2)\n"
                  "  --steps N       timed steps per case (default: by size)\n"
-                 "  --only TEXT     run only cases whose name contains TEXT (dense, order, social, hall, neigh, navigation, output, umans)\n"
+                 "  --only TEXT     run only cases whose name contains TEXT (dense, order, social, hall, neigh, navigation, output, umans,\n"
+                 "                  process)\n"
                  "  --csv FILE      also write every row as CSV\n"
                  "  --umans PATH    UMANS' console application for the side-by-side case (default: $CROWDHEALTH_UMANS,\n"
                  "                  else /tmp/umans-ref/build/UMANS-ConsoleApplication-Linux as\n"
@@ -780,6 +922,7 @@ void usage() {
                  "  --umans-reps N  runs of each program, interleaved (default 3; --quick 1)\n"
                  "  --umans-time T  simulated seconds of each run (default 10 = 100 steps; --quick 1)\n"
                  "  --write-umans-scene FILE  write that scene (end_time: --umans-time given before it) and stop\n"
+                 "  --process-reps N  runs of the bare step and the program per scene in the process case (default 3)\n"
                  "  --no-fork       run cases in this process (peak memory then accumulates)\n";
 }
 
@@ -790,7 +933,7 @@ int main(int argc, char** argv) {
     std::vector<int> threads = {1, 2};
     int stepsOverride = 0;
     std::string csvPath, only, umansOption, crowdhealthOption;
-    int umansReps = 0;
+    int umansReps = 0, processReps = 0;
     double umansTime = 0;
     for (int k = 1; k < argc; ++k) {
         const std::string a = argv[k];
@@ -812,6 +955,7 @@ int main(int argc, char** argv) {
         else if (a == "--crowdhealth") crowdhealthOption = next();
         else if (a == "--umans-reps") umansReps = std::stoi(next());
         else if (a == "--umans-time") umansTime = std::stod(next());
+        else if (a == "--process-reps") processReps = std::stoi(next());
         else if (a == "--write-umans-scene") {
             // The side-by-side scene as a file, to profile or run by hand; nothing else is run.
             const std::string file = next();
@@ -950,6 +1094,16 @@ int main(int argc, char** argv) {
                             r.n, r.threads, r.extra1, r.msMedian, r.msMin, r.extra2, r.extra3);
             }
         }
+        std::fflush(stdout);
+    }
+
+    if (wanted("process")) {
+        std::printf("\nprocess: the program as users run it (metrics, safety recorder, verdict, summary; no "
+                    "trajectories) against the bare step, CPU ms per fine step, one thread; fixed = the program "
+                    "stopped at 0.1 s (loading, first records, outputs, one coarse step); marginal = (whole - fixed) "
+                    "/ the steps between\n");
+        runProcessCases(findCrowdHealth(crowdhealthOption), 10000, processReps > 0 ? processReps : quick ? 1 : 3, quick,
+                        fork);
         std::fflush(stdout);
     }
 
