@@ -78,6 +78,29 @@ BOOST_AUTO_TEST_CASE(toric_grid_finds_neighbours_across_the_border) {
     BOOST_TEST(acrossBorder > 0, "the random set must contain pairs that are neighbours only across the border");
 }
 
+BOOST_AUTO_TEST_CASE(toric_grid_with_cells_smaller_than_the_radius) {
+    // The simulation's grid has cells half the neighbourhood radius for short ranges
+    // (Simulation::stepGridCell), so a query spans several cells each way, also across the border.
+    for (const auto& [w, h] : {std::pair{20.0, 12.0}, std::pair{4.0, 3.0}}) {
+        auto pts = randomPoints(600, -0.5, 0.5, 13);
+        for (Vec2& p : pts) p = Vec2(p.x() * w, p.y() * h);
+        PointGrid grid;
+        for (double cell : {0.5, 0.7}) {
+            grid.build(pts, cell, true, w, h);
+            for (double radius : {1.0, 1.3}) {
+                for (int q = 0; q < static_cast<int>(pts.size()); q += 5) {
+                    std::vector<int> expected;
+                    for (int j = 0; j < static_cast<int>(pts.size()); ++j)
+                        if (minimumImage(pts[j] - pts[q], w, h).squaredNorm() <= radius * radius) expected.push_back(j);
+                    BOOST_TEST(grid.within(pts[q], radius) == expected,
+                               "torus " << w << " x " << h << " cell " << cell << " radius " << radius);
+                    BOOST_TEST(grid.candidateCount(pts[q], radius) >= expected.size());
+                }
+            }
+        }
+    }
+}
+
 BOOST_AUTO_TEST_CASE(far_flung_points_do_not_explode_memory) {
     // UMANS examples put goals 50 km away; agents walking there spread the bounding box.
     std::vector<Vec2> pts = {{0, 0}, {0.5, 0}, {50000, 3}, {50000.4, 3}};

@@ -59,6 +59,7 @@ Simulation::Simulation(ScenarioSpec specIn)
         policyRange_.push_back(r);
         maxRange_ = std::max(maxRange_, r);
     }
+    gridCell_ = stepGridCell(maxRange_);
 
     pending_.resize(spec.agents.size());
     for (std::size_t k = 0; k < pending_.size(); ++k) pending_[k] = k;
@@ -74,6 +75,10 @@ Simulation::Simulation(ScenarioSpec specIn)
 }
 
 Simulation::~Simulation() = default;
+
+double Simulation::stepGridCell(double range) {
+    return range < NeighbourLists::kFineGridFrom ? 0.5 * range : range;
+}
 
 void Simulation::setThreads(int n) { omp_set_num_threads(std::max(1, n)); }
 
@@ -191,7 +196,7 @@ void Simulation::stepFine() {
     timed(Phase::Neighbours, [&] {
         // One search per step: the grid, then every agent's neighbour list within its policy's
         // range, which SPH density, contact and the per-agent calls all read.
-        grid_.build(agents_.pos, maxRange_, world_.periodic(), spec_.world.width, spec_.world.height);
+        grid_.build(agents_.pos, gridCell_, world_.periodic(), spec_.world.width, spec_.world.height);
         if (reorderInterval_ > 0 && fineSteps_ % static_cast<std::uint64_t>(reorderInterval_) == 0) reorderAgents();
         lists_.build(agents_.pos, grid_, world_, agents_.policy, policyRange_);
     });
@@ -450,7 +455,7 @@ void Simulation::reorderAgents() {
     agents_.permute(previous);
     followAgents(previous);
     health_.follow(agents_);
-    grid_.build(agents_.pos, maxRange_, world_.periodic(), spec_.world.width, spec_.world.height);
+    grid_.build(agents_.pos, gridCell_, world_.periodic(), spec_.world.width, spec_.world.height);
 }
 
 void Simulation::removeFinished() {

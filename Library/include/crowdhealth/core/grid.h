@@ -1,4 +1,4 @@
-// CrowdHealth — uniform-grid neighbour search (cell = largest interaction range, std::floor
+// CrowdHealth — uniform-grid neighbour search (square cells, std::floor
 // indexing, rebuilt each step with a counting sort), for agents and for static wall segments.
 #pragma once
 
@@ -14,7 +14,9 @@ namespace ch {
 /// Points (agent positions) bucketed in square cells. Supports a toric (periodic) domain.
 class PointGrid {
 public:
-    /// Rebuilds the grid over `points`. `cellSize` > 0 should be the largest query radius.
+    /// Rebuilds the grid over `points` with cells of `cellSize` > 0 (m). Queries of any radius
+    /// work; they scan the cells the query disc's bounding box touches, so cells smaller than the
+    /// radius mean fewer candidates (Simulation::stepGridCell uses half the radius).
     /// If `periodic`, the domain is [-width/2, width/2) × [-height/2, height/2) and queries wrap.
     void build(const std::vector<Vec2>& points, double cellSize, bool periodic = false, double width = 0,
                double height = 0);

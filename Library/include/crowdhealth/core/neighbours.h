@@ -36,11 +36,11 @@ static_assert(sizeof(NeighbourAgent) == 24, "NeighbourAgent should stay 24 bytes
 /// Memory: 24 bytes per neighbour pair within range (about 14 per agent in a dense SPH crowd).
 class NeighbourLists {
 public:
-    /// Rebuilds the lists for `positions` from `grid` (built over the same positions with a cell
-    /// of at least the largest radius). Agent i's radius is rangeOfGroup[group[i]]. When the
-    /// largest radius is at least kFineGridFrom (and the world is not periodic) the lists are
-    /// gathered from a grid of cells a kFineGridCells-th of it instead, built here: fewer
-    /// candidates to test, the lists then in that grid's visit order.
+    /// Rebuilds the lists for `positions` from `grid` (built over the same positions, cells of any
+    /// size: the simulation's are half the largest radius below kFineGridFrom). Agent i's radius
+    /// is rangeOfGroup[group[i]]. When the largest radius is at least kFineGridFrom (and the world
+    /// is not periodic) the lists are gathered from a grid of cells a kFineGridCells-th of it
+    /// instead, built here: fewer candidates to test, the lists then in that grid's visit order.
     void build(const std::vector<Vec2>& positions, const PointGrid& grid, const World& world,
                const std::vector<int>& group, const std::vector<double>& rangeOfGroup);
 

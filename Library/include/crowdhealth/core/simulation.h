@@ -165,6 +165,12 @@ private:
     /// Agent i's state and its neighbour lists of this step into q.
     void gatherQuery(std::size_t i, AgentQuery& q) const;
     void removeFinished();
+    /// grid_'s cell size for a largest neighbourhood radius `range`: half of it for short ranges
+    /// (< NeighbourLists::kFineGridFrom: SPH, contact), the range itself for long ones (whose
+    /// lists come from a finer grid of their own). The list build writes every candidate of the
+    /// cells the query disc's bounding box touches: with cells of r that box holds (3r)² of area
+    /// for a disc of πr² (2.9 candidates per neighbour), with cells of r/2 (2.5r)² (2.0).
+    static double stepGridCell(double range);
     /// Re-orders the agents in the order of grid_ (cells row by row) and rebuilds grid_.
     void reorderAgents();
     /// After agents were added, removed or re-ordered (previous[i] = agent i's former index, -1
@@ -191,7 +197,8 @@ private:
     std::vector<Removal> removed_;
     std::size_t leftWorld_ = 0;
     int reorderInterval_ = kReorderInterval;
-    double maxRange_ = 1.0;                ///< grid cell size: the largest neighbourhood radius
+    double maxRange_ = 1.0;                ///< the largest neighbourhood radius (m)
+    double gridCell_ = 1.0;                ///< grid_'s cell size (m): see stepGridCell()
     double maxRadius_ = 0;                 ///< largest agent radius (m)
     std::vector<double> policyRange_;      ///< neighbourhood radius per policy (m)
     std::vector<int> agentPolicy_;         ///< policy index per spec agent
