@@ -421,6 +421,28 @@ BOOST_AUTO_TEST_CASE(sample_agrees_with_distance_and_direction_everywhere_includ
     BOOST_TEST(fast > 1000);  // most of the floor takes the short way
 }
 
+BOOST_AUTO_TEST_CASE(open_floor_bits_mark_the_walkable_cells_far_from_every_wall) {
+    // WalkableGrid::openFloor is sample()'s short-way test, kept as one bit per cell: walkable and
+    // more than 3.6 cells from every wall. Pillars, a diagonal wall and a world edge; every cell,
+    // the grid's edges and cells off the grid included (words of 64 bits straddle rows here).
+    WorldSpec ws;
+    ws.type = WorldType::Planar;
+    ws.xmin = 0, ws.xmax = 19.3, ws.ymin = 0, ws.ymax = 9.7;
+    const World world(ws, {box(8, 4, 10, 6), box(3, 7, 3.5, 7.5), wall(Vec2(12, 1), Vec2(17, 8))});
+    for (const double cell : {0.1, 0.2, 0.3}) {
+        const WalkableGrid grid(world, settings(cell, 0.5), Vec2(0, 0), Vec2(19.3, 9.7));
+        int open = 0, closed = 0;
+        for (int iy = -2; iy < grid.ny() + 2; ++iy)
+            for (int ix = -2; ix < grid.nx() + 2; ++ix) {
+                const bool expected = grid.walkable(ix, iy) && grid.wallDistance(ix, iy) > 3.6 * cell;
+                BOOST_TEST(grid.openFloor(ix, iy) == expected, "cell (" << ix << ", " << iy << ") at h = " << cell);
+                (expected ? open : closed) += 1;
+            }
+        BOOST_TEST(open > 1000);
+        BOOST_TEST(closed > 300);
+    }
+}
+
 BOOST_AUTO_TEST_CASE(a_target_drawn_across_a_door_leads_through_its_middle_not_past_a_post) {
     // A wall along y = 0 with a 1.2 m door at x ∈ [4.4, 5.6]; the target is the door's rectangle
     // (y ∈ [−0.2, 0.2]), as exits are drawn. Walking along the field from far to the side, the path

@@ -217,6 +217,11 @@ WalkableGrid::WalkableGrid(const World& world, const WalkableGridSettings& setti
         }
         ++next;
     }
+
+    // Open floor (DistanceField::sample's short way), the same test it made on speed and wall distance.
+    openBits_.assign((n + 63) / 64, 0);
+    for (std::size_t k = 0; k < n; ++k)
+        if (speed_[k] > 0 && wallDistance_[k] > kOpenFloorCells * h_) openBits_[k >> 6] |= std::uint64_t{1} << (k & 63);
 }
 
 void WalkableGrid::cellOf(const Vec2& p, int& ix, int& iy) const {
@@ -535,39 +540,57 @@ Vec2 DistanceField::keepOffWalls(const Vec2& p, int ix, int iy, const Vec2& dir)
 Vec2 DistanceField::sample(const Vec2& p, double& dist) const {
     if (grid_ != nullptr && seeded_) {
         const WalkableGrid& g = *grid_;
-        int cx, cy;
-        g.cellOf(p, cx, cy);
         const double h = g.cellSize();
-        if (g.inGrid(cx, cy) && g.walkable(cx, cy) && g.wallDistance(cx, cy) > kOpenFloorCells * h &&
-            std::isfinite(value(cx, cy))) {
-            // Open floor: the 4 × 4 block round p is walkable and in p's region (so reached), and
-            // the general rules reduce to bilinear T and bilinearly blended central differences.
-            const double fx = (p.x() - g.origin().x()) / h - 0.5, fy = (p.y() - g.origin().y()) / h - 0.5;
+        // p in cell units: cellOf floors these, the interpolation below subtracts half a cell from
+        // them (the same divisions, done once).
+        const double qx = (p.x() - g.origin().x()) / h, qy = (p.y() - g.origin().y()) / h;
+        const int cx = static_cast<int>(std::floor(qx)), cy = static_cast<int>(std::floor(qy));
+        if (g.openFloor(cx, cy)) {
+            // Open floor: the 4 × 4 block round p is walkable and in p's region (so reached when
+            // p's cell is), and the general rules reduce to bilinear T and bilinearly blended
+            // central differences.
+            const double fx = qx - 0.5, fy = qy - 0.5;
             const int i0 = static_cast<int>(std::floor(fx)), j0 = static_cast<int>(std::floor(fy));
             const double tx = fx - i0, ty = fy - j0;
-            if (i0 < 1 || j0 < 1 || i0 + 2 >= g.nx() || j0 + 2 >= g.ny()) {  // the block leaves the grid
-                dist = distance(p);
-                return direction(p);
-            }
-            const std::size_t nx = static_cast<std::size_t>(g.nx());
-            const float* row = &value_[static_cast<std::size_t>(g.index(i0 - 1, j0 - 1))];
-            double t[4][4];  // t[row][column] for cells (i0 − 1 … i0 + 2, j0 − 1 … j0 + 2)
-            for (int r = 0; r < 4; ++r, row += nx)
-                for (int c = 0; c < 4; ++c) t[r][c] = row[c];
-            const double w00 = (1 - tx) * (1 - ty), w10 = tx * (1 - ty), w01 = (1 - tx) * ty, w11 = tx * ty;
-            dist = w00 * t[1][1] + w10 * t[1][2] + w01 * t[2][1] + w11 * t[2][2];
-            if (dist >= 2.0 * h) {
-                auto gx = [&](int r, int c) { return t[r][c + 1] - t[r][c - 1]; };
-                auto gy = [&](int r, int c) { return t[r + 1][c] - t[r - 1][c]; };
-                const Vec2 grad(w00 * gx(1, 1) + w10 * gx(1, 2) + w01 * gx(2, 1) + w11 * gx(2, 2),
-                                w00 * gy(1, 1) + w10 * gy(1, 2) + w01 * gy(2, 1) + w11 * gy(2, 2));
-                const Vec2 dir = normalisedOrZero(-grad);
-                if (!dir.isZero()) return dir;
+            if (i0 >= 1 && j0 >= 1 && i0 + 2 < g.nx() && j0 + 2 < g.ny()) {  // else the block leaves the grid
+                const std::size_t nx = static_cast<std::size_t>(g.nx());
+                const float* row = &value_[static_cast<std::size_t>(g.index(i0 - 1, j0 - 1))];
+                double t[4][4];  // t[row][column] for cells (i0 − 1 … i0 + 2, j0 − 1 … j0 + 2)
+                for (int r = 0; r < 4; ++r, row += nx)
+                    for (int c = 0; c < 4; ++c) t[r][c] = row[c];
+                // p's own cell is (i0 or i0 + 1, j0 or j0 + 1): unreached means no path from here.
+                if (std::isfinite(t[cy - j0 + 1][cx - i0 + 1])) {
+                    const double w00 = (1 - tx) * (1 - ty), w10 = tx * (1 - ty), w01 = (1 - tx) * ty, w11 = tx * ty;
+                    dist = w00 * t[1][1] + w10 * t[1][2] + w01 * t[2][1] + w11 * t[2][2];
+                    if (dist >= 2.0 * h) {
+                        auto gx = [&](int r, int c) { return t[r][c + 1] - t[r][c - 1]; };
+                        auto gy = [&](int r, int c) { return t[r + 1][c] - t[r - 1][c]; };
+                        const Vec2 grad(w00 * gx(1, 1) + w10 * gx(1, 2) + w01 * gx(2, 1) + w11 * gx(2, 2),
+                                        w00 * gy(1, 1) + w10 * gy(1, 2) + w01 * gy(2, 1) + w11 * gy(2, 2));
+                        const Vec2 dir = normalisedOrZero(-grad);
+                        if (!dir.isZero()) return dir;
+                    }
+                }
             }
         }
     }
     dist = distance(p);
     return direction(p);
+}
+
+void DistanceField::prefetch(const Vec2& p) const {
+    if (grid_ == nullptr || !seeded_) return;
+    const WalkableGrid& g = *grid_;
+    const double h = g.cellSize();
+    const int i0 = static_cast<int>(std::floor((p.x() - g.origin().x()) / h - 0.5));
+    const int j0 = static_cast<int>(std::floor((p.y() - g.origin().y()) / h - 0.5));
+    if (i0 < 1 || j0 < 1 || i0 + 2 >= g.nx() || j0 + 2 >= g.ny()) return;
+    const std::size_t nx = static_cast<std::size_t>(g.nx());
+    const float* row = &value_[static_cast<std::size_t>(g.index(i0 - 1, j0 - 1))];
+    for (int r = 0; r < 4; ++r, row += nx) {
+        __builtin_prefetch(row);
+        __builtin_prefetch(row + 3);  // the row's last cell, when the four straddle two cache lines
+    }
 }
 
 Vec2 DistanceField::direction(const Vec2& p) const {

@@ -353,7 +353,7 @@ bool Navigation::placeArrival(const AgentStore& agents, const std::vector<std::p
     return place(agents, placed, s, seed, step);
 }
 
-void Navigation::chooseExit(AgentStore& a, std::size_t i, double t, std::uint64_t seed) {
+void Navigation::chooseExit(AgentStore& a, std::size_t i, double t, std::uint64_t seed, bool sampled) {
     const VenueSpec& venue = spec_.venue;
     const int j = a.journey[i];
     const int setIndex = exitSetOf_[static_cast<std::size_t>(j)];
@@ -385,20 +385,22 @@ void Navigation::chooseExit(AgentStore& a, std::size_t i, double t, std::uint64_
             }
     }
     int& current = a.target[i];
+    // The path length to exit e from here: the agent's own, already sampled, for its current target.
+    const int known = sampled ? current : -1;
+    auto pathTo = [&](int e) { return e >= 0 && e == known ? a.navDistance[i] : distanceTo(e, a.pos[i]); };
     if (openOnes.empty()) {
         // Nowhere to go yet: keep heading for the exit chosen (or the first), wait for a reopening.
         if (current < 0) current = candidates.front();
-        a.navDir[i] = directionTo(current, a.pos[i], a.navDistance[i]);
+        if (current != known) a.navDir[i] = directionTo(current, a.pos[i], a.navDistance[i]);
         return;
     }
     const bool currentOpen = current >= 0 && open_[static_cast<std::size_t>(current)] &&
                              std::find(openOnes.begin(), openOnes.end(), current) != openOnes.end();
-    const Vec2 p = a.pos[i];
     auto nearest = [&] {
         int best = openOnes.front();
         double bestD = kInf;
         for (int e : openOnes) {
-            const double d = distanceTo(e, p);
+            const double d = pathTo(e);
             if (d < bestD) {
                 bestD = d;
                 best = e;
@@ -437,7 +439,7 @@ void Navigation::chooseExit(AgentStore& a, std::size_t i, double t, std::uint64_
             //   cost_e = d_e / v + n_e / (q_s · w_e).
             const double v = std::max(kMinChoiceSpeed, a.prefSpeed[i]);
             auto cost = [&](int e) {
-                const double d = distanceTo(e, p);
+                const double d = pathTo(e);
                 // Strictly nearer people only: the agent itself (at distance d) is not counted.
                 // (Before the first update, at activation, nobody is counted yet.)
                 double ahead = 0;
@@ -473,6 +475,7 @@ void Navigation::chooseExit(AgentStore& a, std::size_t i, double t, std::uint64_
         else if (shared < 0 || !open_[static_cast<std::size_t>(shared)]) groupExit_[static_cast<std::size_t>(g)] = chosen;
         // (a member whose journey does not lead to the group's open exit goes its own way)
     }
+    if (chosen == known) return;  // direction and distance already sampled
     current = chosen;
     a.navDir[i] = directionTo(current, a.pos[i], a.navDistance[i]);
 }
@@ -490,10 +493,15 @@ void Navigation::update(AgentStore& a, double t, std::uint64_t seed) {
         changed = true;
     }
 
-    // 2. Directions and remaining distances (each agent its own slot).
+    // 2. Directions and remaining distances (each agent its own slot). The field cells of the
+    // agent kPrefetchAhead places on are requested first: agents sit in many different rows of a
+    // field, and the memory latency of one agent's rows is then hidden behind the work of others.
+    constexpr std::size_t kPrefetchAhead = 8;
 #pragma omp parallel for schedule(static) if (parallelCheapLoop(n))
     for (std::ptrdiff_t ii = 0; ii < static_cast<std::ptrdiff_t>(n); ++ii) {
         const std::size_t i = static_cast<std::size_t>(ii);
+        if (!fields_.empty() && i + kPrefetchAhead < n && a.target[i + kPrefetchAhead] >= 0)
+            fields_[static_cast<std::size_t>(a.target[i + kPrefetchAhead])].prefetch(a.pos[i + kPrefetchAhead]);
         if (a.target[i] >= 0) a.navDir[i] = directionTo(a.target[i], a.pos[i], a.navDistance[i]);
     }
 
@@ -551,7 +559,7 @@ void Navigation::update(AgentStore& a, double t, std::uint64_t seed) {
                                                        venue.exitSets[static_cast<std::size_t>(exitSetOf_[static_cast<std::size_t>(j)])].choice ==
                                                            ExitChoice::Quickest &&
                                                        t + 1e-9 >= a.nextChoice[i]))) {
-            chooseExit(a, i, t, seed);
+            chooseExit(a, i, t, seed, true);  // step 2 sampled its current target (-1: none)
         }
     }
 

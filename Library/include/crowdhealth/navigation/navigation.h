@@ -145,7 +145,9 @@ private:
     /// Agent i goes on from its current waypoint to the next stage.
     void advance(AgentStore& a, std::size_t i, double t, std::uint64_t seed);
     /// Chooses agent i's exit by its journey's rule (a weighted choice stands while its exit is open).
-    void chooseExit(AgentStore& a, std::size_t i, double t, std::uint64_t seed);
+    /// `sampled`: a.navDir[i] and a.navDistance[i] already hold directionTo(a.target[i], a.pos[i])
+    /// (update's step 2), which the choice then reads instead of sampling the field again.
+    void chooseExit(AgentStore& a, std::size_t i, double t, std::uint64_t seed, bool sampled = false);
     Vec2 directionTo(int target, const Vec2& p, double& distance) const;
 };
 
