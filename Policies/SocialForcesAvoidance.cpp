@@ -185,7 +185,6 @@ Vec2 SocialForcesAvoidance::wallForce(const Vec2& diff) const {
 }
 
 Vec2 SocialForcesAvoidance::acceleration(const AgentQuery& q, const StepContext& ctx) const {
-    const AgentStore& A = ctx.agents;
     // Walking direction for the field of view: the velocity, or the preferred one when at rest.
     Vec2 heading = normalisedOrZero(q.velocity);
     if (heading.squaredNorm() == 0) heading = normalisedOrZero(q.prefVelocity);

@@ -4,3 +4,6 @@
 #pragma once
 
 #include "crowdhealth/core/simd.h"
+
+// The pair loop and its test pass simd::DV by value between inlined helpers: no call crosses an ABI.
+#pragma GCC diagnostic ignored "-Wpsabi"
