@@ -537,39 +537,48 @@ Vec2 DistanceField::keepOffWalls(const Vec2& p, int ix, int iy, const Vec2& dir)
     return steepestNeighbour(p, ix, iy);
 }
 
+DistanceField::Block DistanceField::blockAround(const Vec2& p) const {
+    const WalkableGrid& g = *grid_;
+    const double h = g.cellSize();
+    Block b;
+    // The same divisions serve cellOf's floor (p's own cell) and the interpolation, half a cell lower.
+    b.qx = (p.x() - g.origin().x()) / h;
+    b.qy = (p.y() - g.origin().y()) / h;
+    b.i0 = static_cast<int>(std::floor(b.qx - 0.5));
+    b.j0 = static_cast<int>(std::floor(b.qy - 0.5));
+    b.inGrid = b.i0 >= 1 && b.j0 >= 1 && b.i0 + 2 < g.nx() && b.j0 + 2 < g.ny();
+    b.row = b.inGrid ? &value_[static_cast<std::size_t>(g.index(b.i0 - 1, b.j0 - 1))] : nullptr;
+    return b;
+}
+
 Vec2 DistanceField::sample(const Vec2& p, double& dist) const {
     if (grid_ != nullptr && seeded_) {
         const WalkableGrid& g = *grid_;
         const double h = g.cellSize();
-        // p in cell units: cellOf floors these, the interpolation below subtracts half a cell from
-        // them (the same divisions, done once).
-        const double qx = (p.x() - g.origin().x()) / h, qy = (p.y() - g.origin().y()) / h;
-        const int cx = static_cast<int>(std::floor(qx)), cy = static_cast<int>(std::floor(qy));
-        if (g.openFloor(cx, cy)) {
-            // Open floor: the 4 × 4 block round p is walkable and in p's region (so reached when
-            // p's cell is), and the general rules reduce to bilinear T and bilinearly blended
-            // central differences.
-            const double fx = qx - 0.5, fy = qy - 0.5;
-            const int i0 = static_cast<int>(std::floor(fx)), j0 = static_cast<int>(std::floor(fy));
-            const double tx = fx - i0, ty = fy - j0;
-            if (i0 >= 1 && j0 >= 1 && i0 + 2 < g.nx() && j0 + 2 < g.ny()) {  // else the block leaves the grid
-                const std::size_t nx = static_cast<std::size_t>(g.nx());
-                const float* row = &value_[static_cast<std::size_t>(g.index(i0 - 1, j0 - 1))];
-                double t[4][4];  // t[row][column] for cells (i0 − 1 … i0 + 2, j0 − 1 … j0 + 2)
-                for (int r = 0; r < 4; ++r, row += nx)
-                    for (int c = 0; c < 4; ++c) t[r][c] = row[c];
-                // p's own cell is (i0 or i0 + 1, j0 or j0 + 1): unreached means no path from here.
-                if (std::isfinite(t[cy - j0 + 1][cx - i0 + 1])) {
-                    const double w00 = (1 - tx) * (1 - ty), w10 = tx * (1 - ty), w01 = (1 - tx) * ty, w11 = tx * ty;
-                    dist = w00 * t[1][1] + w10 * t[1][2] + w01 * t[2][1] + w11 * t[2][2];
-                    if (dist >= 2.0 * h) {
-                        auto gx = [&](int r, int c) { return t[r][c + 1] - t[r][c - 1]; };
-                        auto gy = [&](int r, int c) { return t[r + 1][c] - t[r - 1][c]; };
-                        const Vec2 grad(w00 * gx(1, 1) + w10 * gx(1, 2) + w01 * gx(2, 1) + w11 * gx(2, 2),
-                                        w00 * gy(1, 1) + w10 * gy(1, 2) + w01 * gy(2, 1) + w11 * gy(2, 2));
-                        const Vec2 dir = normalisedOrZero(-grad);
-                        if (!dir.isZero()) return dir;
-                    }
+        const Block b = blockAround(p);
+        const int cx = static_cast<int>(std::floor(b.qx)), cy = static_cast<int>(std::floor(b.qy));
+        // Open floor: the 4 × 4 block round p is walkable and in p's region (so reached when p's
+        // cell is), and the general rules reduce to bilinear T and bilinearly blended central
+        // differences. A block leaving the grid takes the general way.
+        if (g.openFloor(cx, cy) && b.inGrid) {
+            const int i0 = b.i0, j0 = b.j0;
+            const double tx = (b.qx - 0.5) - i0, ty = (b.qy - 0.5) - j0;
+            const std::size_t nx = static_cast<std::size_t>(g.nx());
+            const float* row = b.row;
+            double t[4][4];  // t[row][column] for cells (i0 − 1 … i0 + 2, j0 − 1 … j0 + 2)
+            for (int r = 0; r < 4; ++r, row += nx)
+                for (int c = 0; c < 4; ++c) t[r][c] = row[c];
+            // p's own cell is (i0 or i0 + 1, j0 or j0 + 1): unreached means no path from here.
+            if (std::isfinite(t[cy - j0 + 1][cx - i0 + 1])) {
+                const double w00 = (1 - tx) * (1 - ty), w10 = tx * (1 - ty), w01 = (1 - tx) * ty, w11 = tx * ty;
+                dist = w00 * t[1][1] + w10 * t[1][2] + w01 * t[2][1] + w11 * t[2][2];
+                if (dist >= 2.0 * h) {
+                    auto gx = [&](int r, int c) { return t[r][c + 1] - t[r][c - 1]; };
+                    auto gy = [&](int r, int c) { return t[r + 1][c] - t[r - 1][c]; };
+                    const Vec2 grad(w00 * gx(1, 1) + w10 * gx(1, 2) + w01 * gx(2, 1) + w11 * gx(2, 2),
+                                    w00 * gy(1, 1) + w10 * gy(1, 2) + w01 * gy(2, 1) + w11 * gy(2, 2));
+                    const Vec2 dir = normalisedOrZero(-grad);
+                    if (!dir.isZero()) return dir;
                 }
             }
         }
@@ -580,13 +589,10 @@ Vec2 DistanceField::sample(const Vec2& p, double& dist) const {
 
 void DistanceField::prefetch(const Vec2& p) const {
     if (grid_ == nullptr || !seeded_) return;
-    const WalkableGrid& g = *grid_;
-    const double h = g.cellSize();
-    const int i0 = static_cast<int>(std::floor((p.x() - g.origin().x()) / h - 0.5));
-    const int j0 = static_cast<int>(std::floor((p.y() - g.origin().y()) / h - 0.5));
-    if (i0 < 1 || j0 < 1 || i0 + 2 >= g.nx() || j0 + 2 >= g.ny()) return;
-    const std::size_t nx = static_cast<std::size_t>(g.nx());
-    const float* row = &value_[static_cast<std::size_t>(g.index(i0 - 1, j0 - 1))];
+    const Block b = blockAround(p);
+    if (!b.inGrid) return;
+    const std::size_t nx = static_cast<std::size_t>(grid_->nx());
+    const float* row = b.row;
     for (int r = 0; r < 4; ++r, row += nx) {
         __builtin_prefetch(row);
         __builtin_prefetch(row + 3);  // the row's last cell, when the four straddle two cache lines

@@ -141,6 +141,15 @@ public:
     const WalkableGrid& grid() const { return *grid_; }
 
 private:
+    /// Where sample(p) reads on open floor: p in cell units (qx, qy) and the 4 × 4 block of cells
+    /// (i0 − 1 … i0 + 2, j0 − 1 … j0 + 2) whose inner four centres surround p.
+    struct Block {
+        double qx, qy;
+        int i0, j0;
+        bool inGrid;           ///< the whole block lies on the grid
+        const float* row;      ///< T of the block's first row (rows nx apart); null when !inGrid
+    };
+    Block blockAround(const Vec2& p) const;
     /// Gradient of T at a reached cell centre (central differences, one-sided next to blocked or
     /// unreached cells); false when no neighbour along either axis is usable.
     bool cellGradient(int ix, int iy, Vec2& g) const;
