@@ -63,11 +63,15 @@ namespace {
 /// A crowd of n + 1 agents round agent 0 (a few in contact with it, some beyond range 5 m), and
 /// SocialForcesAvoidance with the given switches: returns acceleration() and the scalar reference,
 /// Σ_j w_j pairForce(R_j, s_j) in list order, divided by the mass.
-std::pair<Vec2, Vec2> forceAndReference(int n, bool relative, bool cutoff, bool atRest, std::uint64_t seed) {
+/// With `atRange`, the first four neighbours sit at exactly the range, 5 m (|(3, 4)| = 5 exactly).
+std::pair<Vec2, Vec2> forceAndReference(int n, bool relative, bool cutoff, bool atRest, std::uint64_t seed,
+                                        bool atRange = false) {
     test::Frame f;
     std::mt19937_64 rng(seed);
     std::uniform_real_distribution<double> u(-1.0, 1.0);
     f.add(Vec2(0, 0), Vec2(10, 3), atRest ? Vec2(0, 0) : Vec2(1.1, 0.2));
+    if (atRange)
+        for (const Vec2 p : {Vec2(3, 4), Vec2(-5, 0), Vec2(0, -5), Vec2(4, -3)}) f.add(p, Vec2(u(rng), 9), Vec2(u(rng), u(rng)));
     for (int k = 0; k < n; ++k) {
         // Most within 5 m, one in five in contact (closer than 0.6 m), a few beyond 5 m.
         const double r = k % 5 == 0 ? 0.1 + 0.45 * std::abs(u(rng)) : 0.7 + 5.0 * std::abs(u(rng));
@@ -147,9 +151,11 @@ BOOST_AUTO_TEST_CASE(every_pair_loop_build_gives_the_same_bits) {
                 for (bool cutoff : {false, true})
                     for (bool atRest : {false, true}) {
                         BOOST_REQUIRE(SocialForcesAvoidance::setPairLoopPath(path));
-                        const Vec2 got = forceAndReference(n, relative, cutoff, atRest, 500 + n).first;
+                        // Odd lengths also with four neighbours at exactly the range (the ≤ test).
+                        const bool atRange = n % 2 == 1;
+                        const Vec2 got = forceAndReference(n, relative, cutoff, atRest, 500 + n, atRange).first;
                         BOOST_REQUIRE(SocialForcesAvoidance::setPairLoopPath(0));
-                        const Vec2 generic = forceAndReference(n, relative, cutoff, atRest, 500 + n).first;
+                        const Vec2 generic = forceAndReference(n, relative, cutoff, atRest, 500 + n, atRange).first;
                         BOOST_TEST_CONTEXT("build " << path << " n " << n << " relative " << relative << " cutoff "
                                                     << cutoff << " at rest " << atRest) {
                             BOOST_TEST(std::memcmp(&got, &generic, sizeof got) == 0);
