@@ -44,7 +44,11 @@ typedef double D2 __attribute__((vector_size(16)));
 template <class V>
 [[gnu::always_inline]] inline void transpose(const D2* h, V& x, V& y) {
     V even, odd;
-    if constexpr (sizeof(V) == 32) {
+    if constexpr (sizeof(V) == 16) {
+        x = __builtin_shufflevector(h[0], h[1], 0, 2);
+        y = __builtin_shufflevector(h[0], h[1], 1, 3);
+        return;
+    } else if constexpr (sizeof(V) == 32) {
         even = __builtin_shufflevector(h[0], h[2], 0, 1, 2, 3);
         odd = __builtin_shufflevector(h[1], h[3], 0, 1, 2, 3);
         x = __builtin_shufflevector(even, odd, 0, 4, 2, 6);
@@ -105,6 +109,17 @@ struct PairConstants {
 [[gnu::always_inline]] inline simd::IV allLanes(simd::DV) { return simd::IV{} - 1; }
 [[gnu::always_inline]] inline simd::DV sel(simd::IV m, simd::DV a, simd::DV b) { return simd::select(m, a, b); }
 [[gnu::always_inline]] inline simd::DV expNeg(simd::DV x) { return simd::expNonPositive(x); }
+/// Two lanes (one SSE2 register per value: the generic x86-64 build).
+typedef std::int64_t I2 __attribute__((vector_size(16)));
+[[gnu::always_inline]] inline I2 le(D2 a, D2 b) { return a <= b; }
+[[gnu::always_inline]] inline I2 lt(D2 a, D2 b) { return a < b; }
+[[gnu::always_inline]] inline I2 allLanes(D2) { return I2{} - 1; }
+[[gnu::always_inline]] inline D2 sel(I2 m, D2 a, D2 b) { return simd::select(m, a, b); }
+[[gnu::always_inline]] inline D2 expNeg(D2 x) {
+    const D2 tooSmall = simd::splatAs<D2>(-708.0);
+    const I2 underflow = x < tooSmall;
+    return sel(underflow, D2{}, simd::expInRange(sel(underflow, tooSmall, x)));
+}
 
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 #define CH_SF_X86 1
@@ -217,15 +232,15 @@ template <bool Relative, class V>
 /// gradient takes one division instead of three (∇b = (|R| + |R−s|)/(4b|R||R−s|) ·
 /// (R|R−s| + (R−s)|R|)). With std::exp and pairForce()'s three divisions this loop gave the bits
 /// of the scalar loop it replaced, every state hash of crowdhealth-bench unchanged.
-/// Three builds of it, chosen when the program starts (SocialForcesAvoidance::pairLoopPath): four
-/// lanes for generic x86-64 (two SSE2 registers per value), four lanes in AVX2, eight lanes in
-/// AVX-512. All do the same operations lane by lane without fused multiply-add (GCC would
+/// Three builds of it, chosen when the program starts (SocialForcesAvoidance::pairLoopPath): two
+/// lanes for generic x86-64 (one SSE2 register per value; four lanes in two registers spilled to
+/// the stack and took 1.5x longer), four lanes in AVX2, eight lanes in AVX-512. All do the same operations lane by lane without fused multiply-add (GCC would
 /// contract a·b + c into one where the target has FMA, as AVX-512F does: fp-contract=off keeps
 /// every product and sum rounded on its own), so all give the same bits
 /// (Tests/policies_social_forces_simd_test.cpp compares them).
 __attribute__((optimize("fp-contract=off")))
 Vec2 pedestrianForcesGeneric(std::span<const NeighbourAgent> list, const PairLoop& in) {
-    return in.relative ? pairLoop<true, simd::DV>(list, in) : pairLoop<false, simd::DV>(list, in);
+    return in.relative ? pairLoop<true, D2>(list, in) : pairLoop<false, D2>(list, in);
 }
 
 #ifdef CH_SF_X86

@@ -35,8 +35,8 @@ public:
     /// Force from a wall whose nearest point is at `diff` = x_α − nearest.
     Vec2 wallForce(const Vec2& diff) const;
 
-    /// The pair loop's builds (issue 20), which give the same bits: 0 generic x86-64 (four pairs
-    /// at a time in SSE2 registers; the only one off x86-64), 1 AVX2 (four), 2 AVX-512 (eight).
+    /// The pair loop's builds (issue 20), which give the same bits: 0 generic (two pairs at a time
+    /// in SSE2 registers on x86-64; the only one elsewhere), 1 AVX2 (four), 2 AVX-512 (eight).
     /// The best this CPU runs is used, for every instance.
     static int pairLoopPath();
     /// Uses build `path` from now on, for every instance (tests compare the builds); returns false

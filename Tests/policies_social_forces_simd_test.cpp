@@ -71,7 +71,7 @@ std::pair<Vec2, Vec2> forceAndReference(int n, bool relative, bool cutoff, bool 
     std::uniform_real_distribution<double> u(-1.0, 1.0);
     f.add(Vec2(0, 0), Vec2(10, 3), atRest ? Vec2(0, 0) : Vec2(1.1, 0.2));
     if (atRange)
-        for (const Vec2 p : {Vec2(3, 4), Vec2(-5, 0), Vec2(0, -5), Vec2(4, -3)}) f.add(p, Vec2(u(rng), 9), Vec2(u(rng), u(rng)));
+        for (const Vec2& p : {Vec2(3, 4), Vec2(-5, 0), Vec2(0, -5), Vec2(4, -3)}) f.add(p, Vec2(u(rng), 9), Vec2(u(rng), u(rng)));
     for (int k = 0; k < n; ++k) {
         // Most within 5 m, one in five in contact (closer than 0.6 m), a few beyond 5 m.
         const double r = k % 5 == 0 ? 0.1 + 0.45 * std::abs(u(rng)) : 0.7 + 5.0 * std::abs(u(rng));
@@ -134,7 +134,7 @@ BOOST_AUTO_TEST_CASE(simd_force_equals_scalar_pair_sum) {
 BOOST_AUTO_TEST_CASE(every_pair_loop_build_gives_the_same_bits) {
     // The generic (SSE2), AVX2 and AVX-512 builds of the pair loop do the same operations lane by
     // lane and sum in list order: bit for bit the same force, for every list length modulo the
-    // lanes (4 and 8) and every switch. Builds this CPU cannot run are skipped (and said so).
+    // lanes (2, 4 and 8) and every switch. Builds this CPU cannot run are skipped (and said so).
     const int best = SocialForcesAvoidance::pairLoopPath();
     BOOST_TEST(!SocialForcesAvoidance::setPairLoopPath(3));  // no such build
     BOOST_TEST(!SocialForcesAvoidance::setPairLoopPath(-1));
