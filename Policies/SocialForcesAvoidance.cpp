@@ -146,12 +146,12 @@ typedef std::int64_t I2 __attribute__((vector_size(16)));
 }
 #endif
 
-/// Adds the force terms of N pairs (the lanes of V), those where `live` is set, to (fx, fy) one
-/// after the other in lane order. The model's switches without a branch: no contact cutoff is
+/// The force terms (tx, ty) of N pairs (the lanes of V), +0 in lanes where `live` is not set.
+/// The model's switches without a branch: no contact cutoff is
 /// ownRadius = −∞ (every distance > −∞ + r_j), a zero heading is behind = 1 (every weight 1, the
 /// field of view's full weight); relative velocities are a template parameter.
 template <bool Relative, class V, class M>
-[[gnu::always_inline]] inline void pairTerms(const Lanes<V>& g, M live, const PairConstants<V>& p, double& fx, double& fy) {
+[[gnu::always_inline]] inline void pairTerms(const Lanes<V>& g, M live, const PairConstants<V>& p, V& tx, V& ty) {
     const auto c = [](double v) { return simd::splatAs<V>(v); };
     const V zero = c(0.0), one = c(1.0);
     const V ox = g.ox, oy = g.oy;
@@ -179,12 +179,22 @@ template <bool Relative, class V, class M>
     // Eq. 8: full weight when the neighbour is within the field of view.
     const M inView = le(p.cosFov * distance, p.hx * ox + p.hy * oy);
     const V w = sel(inView, one, p.behind);
-    const V tx = sel(use, w * (a * gx), zero), ty = sel(use, w * (a * gy), zero);
+    tx = sel(use, w * (a * gx), zero);
+    ty = sel(use, w * (a * gy), zero);
+}
+
+/// (fx, fy) += the lanes of (tx, ty), one after the other in lane order.
+template <class V>
+[[gnu::always_inline]] inline void addLanes(V tx, V ty, double& fx, double& fy) {
     for (int l = 0; l < static_cast<int>(sizeof(V) / sizeof(double)); ++l) {
         fx += tx[l];
         fy += ty[l];
     }
 }
+
+/// Blocks of lanes the pair loop computes before adding their terms (3: per pair 1.1-1.2x
+/// faster than 1 in the AVX2 and AVX-512 builds on AMD Zen 5; 2 and 4 were between).
+inline constexpr std::size_t kBlocks = 3;
 
 /// The pair loop over a whole list, N = sizeof(V) / 8 pairs at a time.
 template <bool Relative, class V>
@@ -208,9 +218,21 @@ template <bool Relative, class V>
     const NeighbourAgent* e[n];
     const auto all = allLanes(V{});
     std::size_t k0 = 0;
+    V tx[kBlocks], ty[kBlocks];
+    // kBlocks blocks of n pairs at a time, their terms added after all are computed: independent
+    // work for the out-of-order core while one block waits on its square roots and exponential
+    // (the loop is latency-bound). The sum keeps the list's order.
+    for (; k0 + kBlocks * n <= m; k0 += kBlocks * n) {
+        for (std::size_t u = 0; u < kBlocks; ++u) {
+            for (std::size_t l = 0; l < n; ++l) e[l] = &list[k0 + u * n + l];
+            pairTerms<Relative>(gather<V>(e, in.other), all, p, tx[u], ty[u]);
+        }
+        for (std::size_t u = 0; u < kBlocks; ++u) addLanes(tx[u], ty[u], fx, fy);
+    }
     for (; k0 + n <= m; k0 += n) {
         for (std::size_t l = 0; l < n; ++l) e[l] = &list[k0 + l];
-        pairTerms<Relative>(gather<V>(e, in.other), all, p, fx, fy);
+        pairTerms<Relative>(gather<V>(e, in.other), all, p, tx[0], ty[0]);
+        addLanes(tx[0], ty[0], fx, fy);
     }
     if (k0 < m) {
         // The last block repeats the list's last entry in the unused lanes, masked.
@@ -219,7 +241,8 @@ template <bool Relative, class V>
         V minusLane;  // {0, −1, −2, …}: lane l is live where k0 − m < −l
         for (std::size_t l = 0; l < n; ++l) minusLane[l] = -static_cast<double>(l);
         const auto live = lt(simd::splatAs<V>(static_cast<double>(k0) - static_cast<double>(m)), minusLane);
-        pairTerms<Relative>(gather<V>(e, in.other), live, p, fx, fy);
+        pairTerms<Relative>(gather<V>(e, in.other), live, p, tx[0], ty[0]);
+        addLanes(tx[0], ty[0], fx, fy);
     }
     return Vec2(fx, fy);
 }
