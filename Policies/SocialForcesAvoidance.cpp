@@ -100,16 +100,17 @@ struct PairConstants {
     V range, ownRadius, behind, hx, hy, cosFov, ownSx, ownSy, vOverSigma, invS;
 };
 
-/// Comparisons and selects, by width. Four lanes: GCC's vector comparisons (all-ones lanes). Eight
-/// lanes: AVX-512 mask registers through intrinsics (GCC 12 expands vector comparisons of 512-bit
-/// vectors that give vectors lane by lane, with scalar compares). Both are the IEEE ordered
-/// comparisons (false with NaN) and bitwise selects: the same results lane by lane.
+/// Comparisons, selects and the exponential, by width. Two and four lanes: GCC's vector
+/// comparisons (all-ones lanes). Eight lanes: AVX-512 mask registers through GCC's builtins (GCC 12
+/// expands a comparison of 512-bit vectors that gives a vector lane by lane, with scalar compares).
+/// All are the IEEE ordered comparisons (false with NaN) and bitwise selects: the same results
+/// lane by lane.
 [[gnu::always_inline]] inline simd::IV le(simd::DV a, simd::DV b) { return a <= b; }
 [[gnu::always_inline]] inline simd::IV lt(simd::DV a, simd::DV b) { return a < b; }
 [[gnu::always_inline]] inline simd::IV allLanes(simd::DV) { return simd::IV{} - 1; }
 [[gnu::always_inline]] inline simd::DV sel(simd::IV m, simd::DV a, simd::DV b) { return simd::select(m, a, b); }
 [[gnu::always_inline]] inline simd::DV expNeg(simd::DV x) { return simd::expNonPositive(x); }
-/// Two lanes (one SSE2 register per value: the generic x86-64 build).
+// Two lanes (one SSE2 register per value: the generic x86-64 build).
 typedef std::int64_t I2 __attribute__((vector_size(16)));
 [[gnu::always_inline]] inline I2 le(D2 a, D2 b) { return a <= b; }
 [[gnu::always_inline]] inline I2 lt(D2 a, D2 b) { return a < b; }
@@ -120,6 +121,13 @@ typedef std::int64_t I2 __attribute__((vector_size(16)));
     const I2 underflow = x < tooSmall;
     return sel(underflow, D2{}, simd::expInRange(sel(underflow, tooSmall, x)));
 }
+
+#if defined(__GNUC__) && !defined(__clang__)
+// No fused multiply-add contraction in the pair loop's builds (see pedestrianForcesGeneric).
+#define CH_SF_NO_CONTRACT __attribute__((optimize("fp-contract=off")))
+#else
+#define CH_SF_NO_CONTRACT
+#endif
 
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 #define CH_SF_X86 1
@@ -256,25 +264,26 @@ template <bool Relative, class V>
 /// (R|R−s| + (R−s)|R|)). With std::exp and pairForce()'s three divisions this loop gave the bits
 /// of the scalar loop it replaced, every state hash of crowdhealth-bench unchanged.
 /// Three builds of it, chosen when the program starts (SocialForcesAvoidance::pairLoopPath): two
-/// lanes for generic x86-64 (one SSE2 register per value; four lanes in two registers spilled to
-/// the stack and took 1.5x longer), four lanes in AVX2, eight lanes in AVX-512. All do the same operations lane by lane without fused multiply-add (GCC would
+/// lanes for generic x86-64 and other CPUs (one SSE2 register per value on x86-64; four lanes in
+/// two registers spilled to the stack and took 1.5x longer), four lanes in AVX2, eight lanes in
+/// AVX-512. All do the same operations lane by lane without fused multiply-add (GCC would
 /// contract a·b + c into one where the target has FMA, as AVX-512F does: fp-contract=off keeps
 /// every product and sum rounded on its own), so all give the same bits
 /// (Tests/policies_social_forces_simd_test.cpp compares them).
-__attribute__((optimize("fp-contract=off")))
+CH_SF_NO_CONTRACT
 Vec2 pedestrianForcesGeneric(std::span<const NeighbourAgent> list, const PairLoop& in) {
     return in.relative ? pairLoop<true, D2>(list, in) : pairLoop<false, D2>(list, in);
 }
 
 #ifdef CH_SF_X86
-__attribute__((target("avx2"), optimize("fp-contract=off")))
+__attribute__((target("avx2"))) CH_SF_NO_CONTRACT
 Vec2 pedestrianForcesAvx2(std::span<const NeighbourAgent> list, const PairLoop& in) {
     return in.relative ? pairLoop<true, simd::DV>(list, in) : pairLoop<false, simd::DV>(list, in);
 }
 
-/// Eight pairs at a time in one AVX-512 register (issue 20: 1.3x faster per pair than AVX2 on AMD
-/// Zen 5, where each AVX-512 instruction costs about what its AVX2 form does).
-CH_SF_AVX512 __attribute__((optimize("fp-contract=off")))
+/// Eight pairs at a time in one AVX-512 register (issue 20: 1.5x faster per pair than AVX2 on AMD
+/// Zen 5, where most AVX-512 instructions cost about what their AVX2 forms do).
+CH_SF_AVX512 CH_SF_NO_CONTRACT
 Vec2 pedestrianForcesWide(std::span<const NeighbourAgent> list, const PairLoop& in) {
     return in.relative ? pairLoop<true, simd::DV8>(list, in) : pairLoop<false, simd::DV8>(list, in);
 }

@@ -2,7 +2,9 @@
 // extensions (two SSE2 registers in the generic x86-64 build, one AVX2 register where the caller is
 // compiled for it), and an exponential for them. Used by SocialForcesAvoidance's pair loop
 // (Policies/SocialForcesSimd.h) and by the crowd field's Gaussian weights (health/safety.cpp).
-// (Eight lanes, two AVX2 registers per value, ran the pair loop 2x slower: the registers spill.)
+// The helpers are templates over the vector type too: the pair loop also runs two lanes (one SSE2
+// register) and eight (one AVX-512 register). (Eight lanes in two AVX2 registers per value ran the
+// pair loop 2x slower: the registers spill.)
 #pragma once
 
 #include <cstdint>
@@ -23,7 +25,7 @@ typedef double DV __attribute__((vector_size(8 * kLanes)));
 typedef std::int64_t IV __attribute__((vector_size(8 * kLanes)));
 
 /// kWideLanes doubles (one AVX-512 register): SocialForcesAvoidance's pair loop where the CPU has
-/// AVX-512 (issue 20). The helpers below take either width.
+/// AVX-512 (issue 20). splatAs, asInt, asDouble, sqrt, select and expInRange take any width.
 inline constexpr int kWideLanes = 8;
 typedef double DV8 __attribute__((vector_size(8 * kWideLanes)));
 typedef std::int64_t IV8 __attribute__((vector_size(8 * kWideLanes)));
