@@ -4,8 +4,16 @@
 #include "SocialForcesSimd.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <cstddef>
+#include <cstring>
+#include <limits>
 #include <span>
+
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#include <immintrin.h>
+#endif
 
 namespace ch {
 
@@ -20,79 +28,291 @@ struct PairLoop {
     Vec2 heading;
 };
 
+/// Two doubles, what one 16-byte load gives.
+typedef double D2 __attribute__((vector_size(16)));
+
+[[gnu::always_inline]] inline D2 load2(const void* p) {
+    D2 v;
+    std::memcpy(&v, p, sizeof v);
+    return v;
+}
+
+/// Lanes l of a vector of N doubles from N two-double halves h[l] = {x_l, y_l}, as two vectors
+/// {x_0, y_0, x_2, y_2, …} and {x_1, y_1, x_3, y_3, …}; one unpack of those then gives
+/// {x_0, x_1, …} and {y_0, y_1, …} (in-lane unpacks in AVX2 and AVX-512, where the 128-bit inserts
+/// take their halves straight from memory).
+template <class V>
+[[gnu::always_inline]] inline void transpose(const D2* h, V& x, V& y) {
+    V even, odd;
+    if constexpr (sizeof(V) == 16) {
+        x = __builtin_shufflevector(h[0], h[1], 0, 2);
+        y = __builtin_shufflevector(h[0], h[1], 1, 3);
+        return;
+    } else if constexpr (sizeof(V) == 32) {
+        even = __builtin_shufflevector(h[0], h[2], 0, 1, 2, 3);
+        odd = __builtin_shufflevector(h[1], h[3], 0, 1, 2, 3);
+        x = __builtin_shufflevector(even, odd, 0, 4, 2, 6);
+        y = __builtin_shufflevector(even, odd, 1, 5, 3, 7);
+    } else {
+        typedef double D4 __attribute__((vector_size(32)));
+        const D4 e0 = __builtin_shufflevector(h[0], h[2], 0, 1, 2, 3), e1 = __builtin_shufflevector(h[4], h[6], 0, 1, 2, 3);
+        const D4 o0 = __builtin_shufflevector(h[1], h[3], 0, 1, 2, 3), o1 = __builtin_shufflevector(h[5], h[7], 0, 1, 2, 3);
+        even = __builtin_shufflevector(e0, e1, 0, 1, 2, 3, 4, 5, 6, 7);
+        odd = __builtin_shufflevector(o0, o1, 0, 1, 2, 3, 4, 5, 6, 7);
+        x = __builtin_shufflevector(even, odd, 0, 8, 2, 10, 4, 12, 6, 14);
+        y = __builtin_shufflevector(even, odd, 1, 9, 3, 11, 5, 13, 7, 15);
+    }
+}
+
+/// What the pair loop reads of N neighbours (V: N doubles), lane l from list entry e[l].
+template <class V>
+struct Lanes {
+    V ox, oy, sx, sy, ssq, rj;
+};
+
+/// Gathers N neighbours with 16-byte loads and shuffles: each entry's offset (16 of its 24 bytes)
+/// and each neighbour's 32-byte Other record as two 16-byte halves, {sx, sy} and {stepSq, radius}.
+/// (Building the lanes one element at a time took a load and an insert per element: 24 of each
+/// per four pairs.)
+template <class V>
+[[gnu::always_inline]] inline Lanes<V> gather(const NeighbourAgent* const* e, const SocialForcesAvoidance::Other* other) {
+    using Other = SocialForcesAvoidance::Other;
+    static_assert(sizeof(Other) == 32 && offsetof(Other, sx) == 0 && offsetof(Other, sy) == 8 &&
+                  offsetof(Other, stepSq) == 16 && offsetof(Other, radius) == 24);
+    constexpr int n = sizeof(V) / sizeof(double);
+    D2 off[n], step[n], rest[n];
+    for (int l = 0; l < n; ++l) {
+        const Other* o = other + e[l]->index;
+        off[l] = load2(&e[l]->offset);  // offset.x(), offset.y(): the entry's first 16 bytes
+        step[l] = load2(&o->sx);
+        rest[l] = load2(&o->stepSq);
+    }
+    Lanes<V> g;
+    transpose(off, g.ox, g.oy);
+    transpose(step, g.sx, g.sy);
+    transpose(rest, g.ssq, g.rj);
+    return g;
+}
+
+/// The loop-invariant values of one agent's call, in every lane of a V.
+template <class V>
+struct PairConstants {
+    V range, ownRadius, behind, hx, hy, cosFov, ownSx, ownSy, vOverSigma, invS;
+};
+
+/// Comparisons, selects and the exponential, by width. Two and four lanes: GCC's vector
+/// comparisons (all-ones lanes). Eight lanes: AVX-512 mask registers through GCC's builtins (GCC 12
+/// expands a comparison of 512-bit vectors that gives a vector lane by lane, with scalar compares).
+/// All are the IEEE ordered comparisons (false with NaN) and bitwise selects: the same results
+/// lane by lane.
+[[gnu::always_inline]] inline simd::IV le(simd::DV a, simd::DV b) { return a <= b; }
+[[gnu::always_inline]] inline simd::IV lt(simd::DV a, simd::DV b) { return a < b; }
+[[gnu::always_inline]] inline simd::IV allLanes(simd::DV) { return simd::IV{} - 1; }
+[[gnu::always_inline]] inline simd::DV sel(simd::IV m, simd::DV a, simd::DV b) { return simd::select(m, a, b); }
+[[gnu::always_inline]] inline simd::DV expNeg(simd::DV x) { return simd::expNonPositive(x); }
+// Two lanes (one SSE2 register per value: the generic x86-64 build).
+typedef std::int64_t I2 __attribute__((vector_size(16)));
+[[gnu::always_inline]] inline I2 le(D2 a, D2 b) { return a <= b; }
+[[gnu::always_inline]] inline I2 lt(D2 a, D2 b) { return a < b; }
+[[gnu::always_inline]] inline I2 allLanes(D2) { return I2{} - 1; }
+[[gnu::always_inline]] inline D2 sel(I2 m, D2 a, D2 b) { return simd::select(m, a, b); }
+[[gnu::always_inline]] inline D2 expNeg(D2 x) {
+    const D2 tooSmall = simd::splatAs<D2>(-708.0);
+    const I2 underflow = x < tooSmall;
+    return sel(underflow, D2{}, simd::expInRange(sel(underflow, tooSmall, x)));
+}
+
+#if defined(__GNUC__) && !defined(__clang__)
+// No fused multiply-add contraction in the pair loop's builds (see pedestrianForcesGeneric).
+#define CH_SF_NO_CONTRACT __attribute__((optimize("fp-contract=off")))
+#else
+#define CH_SF_NO_CONTRACT
+#endif
+
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define CH_SF_X86 1
+#define CH_SF_AVX512 __attribute__((target("avx512f,avx512dq,avx512vl")))
+// (GCC's builtins rather than the <immintrin.h> functions: those carry the AVX-512 target
+// themselves and cannot be inlined into these generic templates, which only ever end up inside
+// pedestrianForcesWide.)
+[[gnu::always_inline]] inline __mmask8 le(simd::DV8 a, simd::DV8 b) {
+    return __builtin_ia32_cmppd512_mask(a, b, _CMP_LE_OQ, 0xff, _MM_FROUND_CUR_DIRECTION);
+}
+[[gnu::always_inline]] inline __mmask8 lt(simd::DV8 a, simd::DV8 b) {
+    return __builtin_ia32_cmppd512_mask(a, b, _CMP_LT_OQ, 0xff, _MM_FROUND_CUR_DIRECTION);
+}
+[[gnu::always_inline]] inline __mmask8 allLanes(simd::DV8) { return 0xff; }
+[[gnu::always_inline]] inline simd::DV8 sel(__mmask8 m, simd::DV8 a, simd::DV8 b) {
+    return __builtin_ia32_blendmpd_512_mask(b, a, m);
+}
+/// simd::expNonPositive on eight lanes, the underflow lanes in a mask register: the same
+/// operations, so the same bits.
+[[gnu::always_inline]] inline simd::DV8 expNeg(simd::DV8 x) {
+    const simd::DV8 tooSmall = simd::splatAs<simd::DV8>(-708.0);
+    const __mmask8 underflow = lt(x, tooSmall);
+    return sel(underflow, simd::DV8{}, simd::expInRange(sel(underflow, tooSmall, x)));
+}
+#endif
+
+/// The force terms (tx, ty) of N pairs (the lanes of V), +0 in lanes where `live` is not set.
+/// The model's switches without a branch: no contact cutoff is
+/// ownRadius = −∞ (every distance > −∞ + r_j), a zero heading is behind = 1 (every weight 1, the
+/// field of view's full weight); relative velocities are a template parameter.
+template <bool Relative, class V, class M>
+[[gnu::always_inline]] inline void pairTerms(const Lanes<V>& g, M live, const PairConstants<V>& p, V& tx, V& ty) {
+    const auto c = [](double v) { return simd::splatAs<V>(v); };
+    const V zero = c(0.0), one = c(1.0);
+    const V ox = g.ox, oy = g.oy;
+    const V distance = simd::sqrt(ox * ox + oy * oy);  // NeighbourAgent::distance()
+    M use = live & le(distance, p.range) & lt(p.ownRadius + g.rj, distance);  // in contact: contact forces act
+    V sx = g.sx, sy = g.sy, ssq = g.ssq;
+    if constexpr (Relative) {
+        sx = sx - p.ownSx;
+        sy = sy - p.ownSy;
+        ssq = sx * sx + sy * sy;
+    }
+    // pairForce(R = −offset, |R|, s, |s|²).
+    const V Rx = -ox, Ry = -oy;
+    const V R2x = Rx - sx, R2y = Ry - sy;
+    const V magR2 = simd::sqrt(R2x * R2x + R2y * R2y);
+    const V sum = distance + magR2;
+    const V twoBSquared = sum * sum - ssq;
+    use &= lt(zero, twoBSquared) & le(c(1e-9), distance) & le(c(1e-9), magR2);
+    const V b = c(0.5) * simd::sqrt(sel(use, twoBSquared, one));
+    use &= le(c(1e-3), b);
+    // ∇b = (|R| + |R−s|)/(4b) · (R/|R| + (R−s)/|R−s|), over one common denominator.
+    const V k = sum / (c(4.0) * b * distance * magR2);
+    const V gx = k * (Rx * magR2 + R2x * distance), gy = k * (Ry * magR2 + R2y * distance);
+    const V a = p.vOverSigma * expNeg(-b * p.invS);
+    // Eq. 8: full weight when the neighbour is within the field of view.
+    const M inView = le(p.cosFov * distance, p.hx * ox + p.hy * oy);
+    const V w = sel(inView, one, p.behind);
+    tx = sel(use, w * (a * gx), zero);
+    ty = sel(use, w * (a * gy), zero);
+}
+
+/// (fx, fy) += the lanes of (tx, ty), one after the other in lane order.
+template <class V>
+[[gnu::always_inline]] inline void addLanes(V tx, V ty, double& fx, double& fy) {
+    for (int l = 0; l < static_cast<int>(sizeof(V) / sizeof(double)); ++l) {
+        fx += tx[l];
+        fy += ty[l];
+    }
+}
+
+/// Blocks of lanes the pair loop computes before adding their terms (3: per pair 1.1-1.2x
+/// faster than 1 in the AVX2 and AVX-512 builds on AMD Zen 5; 2 and 4 were between).
+inline constexpr std::size_t kBlocks = 3;
+
+/// The pair loop over a whole list, N = sizeof(V) / 8 pairs at a time.
+template <bool Relative, class V>
+[[gnu::always_inline]] inline Vec2 pairLoop(std::span<const NeighbourAgent> list, const PairLoop& in) {
+    constexpr std::size_t n = sizeof(V) / sizeof(double);
+    const auto c = [](double v) { return simd::splatAs<V>(v); };
+    const std::size_t m = list.size();
+    const double invSigma = 1.0 / in.sigma;
+    PairConstants<V> p;
+    p.range = c(in.range);
+    p.ownRadius = c(in.cutoff ? in.ownRadius : -std::numeric_limits<double>::infinity());
+    p.behind = c(in.headingZero ? 1.0 : in.behind);
+    p.hx = c(in.heading.x());
+    p.hy = c(in.heading.y());
+    p.cosFov = c(in.cosFov);
+    p.ownSx = c(in.ownStep.x());
+    p.ownSy = c(in.ownStep.y());
+    p.vOverSigma = c(in.V0 * invSigma);
+    p.invS = c(invSigma);
+    double fx = 0, fy = 0;
+    const NeighbourAgent* e[n];
+    const auto all = allLanes(V{});
+    std::size_t k0 = 0;
+    V tx[kBlocks], ty[kBlocks];
+    // kBlocks blocks of n pairs at a time, their terms added after all are computed: independent
+    // work for the out-of-order core while one block waits on its square roots and exponential
+    // (the loop is latency-bound). The sum keeps the list's order.
+    for (; k0 + kBlocks * n <= m; k0 += kBlocks * n) {
+        for (std::size_t u = 0; u < kBlocks; ++u) {
+            for (std::size_t l = 0; l < n; ++l) e[l] = &list[k0 + u * n + l];
+            pairTerms<Relative>(gather<V>(e, in.other), all, p, tx[u], ty[u]);
+        }
+        for (std::size_t u = 0; u < kBlocks; ++u) addLanes(tx[u], ty[u], fx, fy);
+    }
+    for (; k0 + n <= m; k0 += n) {
+        for (std::size_t l = 0; l < n; ++l) e[l] = &list[k0 + l];
+        pairTerms<Relative>(gather<V>(e, in.other), all, p, tx[0], ty[0]);
+        addLanes(tx[0], ty[0], fx, fy);
+    }
+    if (k0 < m) {
+        // The last block repeats the list's last entry in the unused lanes, masked.
+        for (std::size_t l = 0; l < n; ++l) e[l] = &list[std::min(k0 + l, m - 1)];
+        // Lanes k0 + l < m: as many as the list has left, counted from the first.
+        V minusLane;  // {0, −1, −2, …}: lane l is live where k0 − m < −l
+        for (std::size_t l = 0; l < n; ++l) minusLane[l] = -static_cast<double>(l);
+        const auto live = lt(simd::splatAs<V>(static_cast<double>(k0) - static_cast<double>(m)), minusLane);
+        pairTerms<Relative>(gather<V>(e, in.other), live, p, tx[0], ty[0]);
+        addLanes(tx[0], ty[0], fx, fy);
+    }
+    return Vec2(fx, fy);
+}
+
 /// Σ_j w_j f_j over the neighbour list: the elliptic pair force of pairForce() and the field-of-view
-/// weight, simd::kLanes (4) pairs at a time (issue 20). Pairs that exert no force (beyond range, in contact,
+/// weight, several pairs at a time (issue 20). Pairs that exert no force (beyond range, in contact,
 /// degenerate ellipse) are masked to +0. The sum runs over the list in order, one term after the
 /// other, so it does not depend on how the lanes are grouped. The terms differ from pairForce()'s
 /// in the last bits: the exponential is simd::expNonPositive (within 5e-16 of std::exp) and the
 /// gradient takes one division instead of three (∇b = (|R| + |R−s|)/(4b|R||R−s|) ·
 /// (R|R−s| + (R−s)|R|)). With std::exp and pairForce()'s three divisions this loop gave the bits
 /// of the scalar loop it replaced, every state hash of crowdhealth-bench unchanged.
-/// Compiled twice (AVX2 and generic x86-64, chosen when the program starts): the same operations
-/// without fused multiply-add, so both give the same bits.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-__attribute__((target_clones("avx2", "default")))
+/// Three builds of it, chosen when the program starts (SocialForcesAvoidance::pairLoopPath): two
+/// lanes for generic x86-64 and other CPUs (one SSE2 register per value on x86-64; four lanes in
+/// two registers spilled to the stack and took 1.5x longer), four lanes in AVX2, eight lanes in
+/// AVX-512. All do the same operations lane by lane without fused multiply-add (GCC would
+/// contract a·b + c into one where the target has FMA, as AVX-512F does: fp-contract=off keeps
+/// every product and sum rounded on its own), so all give the same bits
+/// (Tests/policies_social_forces_simd_test.cpp compares them).
+CH_SF_NO_CONTRACT
+Vec2 pedestrianForcesGeneric(std::span<const NeighbourAgent> list, const PairLoop& in) {
+    return in.relative ? pairLoop<true, D2>(list, in) : pairLoop<false, D2>(list, in);
+}
+
+#ifdef CH_SF_X86
+__attribute__((target("avx2"))) CH_SF_NO_CONTRACT
+Vec2 pedestrianForcesAvx2(std::span<const NeighbourAgent> list, const PairLoop& in) {
+    return in.relative ? pairLoop<true, simd::DV>(list, in) : pairLoop<false, simd::DV>(list, in);
+}
+
+/// Eight pairs at a time in one AVX-512 register (issue 20: 1.5x faster per pair than AVX2 on AMD
+/// Zen 5, where most AVX-512 instructions cost about what their AVX2 forms do).
+CH_SF_AVX512 CH_SF_NO_CONTRACT
+Vec2 pedestrianForcesWide(std::span<const NeighbourAgent> list, const PairLoop& in) {
+    return in.relative ? pairLoop<true, simd::DV8>(list, in) : pairLoop<false, simd::DV8>(list, in);
+}
 #endif
+
+/// Whether this CPU runs pair-loop path `path` (SocialForcesAvoidance::pairLoopPath).
+bool cpuRuns(int path) {
+#ifdef CH_SF_X86
+    __builtin_cpu_init();  // a static initialiser may run before libgcc's own
+    if (path == 1) return __builtin_cpu_supports("avx2");
+    if (path == 2)
+        return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") &&
+               __builtin_cpu_supports("avx512vl");
+#endif
+    return path == 0;
+}
+
+/// The pair-loop path in use: the best this CPU runs, found once when the program starts.
+std::atomic<int> gPairLoopPath{cpuRuns(2) ? 2 : cpuRuns(1) ? 1 : 0};
+
 Vec2 pedestrianForces(std::span<const NeighbourAgent> list, const PairLoop& in) {
-    using simd::DV;
-    using simd::IV;
-    using simd::splat;
-    const std::size_t m = list.size();
-    const double invSigma = 1.0 / in.sigma;
-    const DV range = splat(in.range), ownRadius = splat(in.ownRadius), behind = splat(in.behind);
-    const DV hx = splat(in.heading.x()), hy = splat(in.heading.y()), cosFov = splat(in.cosFov);
-    const DV ownSx = splat(in.ownStep.x()), ownSy = splat(in.ownStep.y());
-    const DV zero = splat(0.0), half = splat(0.5), four = splat(4.0), one = splat(1.0);
-    const DV vOverSigma = splat(in.V0 * invSigma), invS = splat(invSigma);
-    double fx = 0, fy = 0;
-    for (std::size_t k0 = 0; k0 < m; k0 += simd::kLanes) {
-        // Gather kLanes neighbours (the last block repeats its last one in the unused lanes, masked).
-        DV ox, oy, sx, sy, ssq, rj;
-        IV live;
-        for (int l = 0; l < simd::kLanes; ++l) {
-            const std::size_t k = std::min(k0 + static_cast<std::size_t>(l), m - 1);
-            const NeighbourAgent& n = list[k];
-            const SocialForcesAvoidance::Other& o = in.other[n.index];
-            ox[l] = n.offset.x();
-            oy[l] = n.offset.y();
-            sx[l] = o.sx;
-            sy[l] = o.sy;
-            ssq[l] = o.stepSq;
-            rj[l] = o.radius;
-            live[l] = k0 + static_cast<std::size_t>(l) < m ? -1 : 0;
-        }
-        const DV distance = simd::sqrt(ox * ox + oy * oy);  // NeighbourAgent::distance()
-        IV use = live & (distance <= range);
-        if (in.cutoff) use &= distance > ownRadius + rj;  // in contact: contact forces act
-        if (in.relative) {
-            sx = sx - ownSx;
-            sy = sy - ownSy;
-            ssq = sx * sx + sy * sy;
-        }
-        // pairForce(R = −offset, |R|, s, |s|²).
-        const DV Rx = -ox, Ry = -oy;
-        const DV R2x = Rx - sx, R2y = Ry - sy;
-        const DV magR2 = simd::sqrt(R2x * R2x + R2y * R2y);
-        const DV sum = distance + magR2;
-        const DV twoBSquared = sum * sum - ssq;
-        use &= (twoBSquared > zero) & (distance >= splat(1e-9)) & (magR2 >= splat(1e-9));
-        const DV b = half * simd::sqrt(simd::select(use, twoBSquared, one));
-        use &= b >= splat(1e-3);
-        // ∇b = (|R| + |R−s|)/(4b) · (R/|R| + (R−s)/|R−s|), over one common denominator.
-        const DV c = sum / (four * b * distance * magR2);
-        const DV gx = c * (Rx * magR2 + R2x * distance), gy = c * (Ry * magR2 + R2y * distance);
-        const DV a = vOverSigma * simd::expNonPositive(-b * invS);
-        // Eq. 8: full weight when the neighbour is within the field of view.
-        IV inView = hx * ox + hy * oy >= cosFov * distance;
-        if (in.headingZero) inView = inView | ~inView;
-        const DV w = simd::select(inView, one, behind);
-        const DV tx = simd::select(use, w * (a * gx), zero), ty = simd::select(use, w * (a * gy), zero);
-        for (int l = 0; l < simd::kLanes; ++l) {
-            fx += tx[l];
-            fy += ty[l];
-        }
+#ifdef CH_SF_X86
+    switch (gPairLoopPath.load(std::memory_order_relaxed)) {
+    case 2: return pedestrianForcesWide(list, in);
+    case 1: return pedestrianForcesAvx2(list, in);
+    default: break;
     }
-    return Vec2(fx, fy);
+#endif
+    return pedestrianForcesGeneric(list, in);
 }
 
 }  // namespace
@@ -160,6 +380,14 @@ Vec2 SocialForcesAvoidance::pairForce(const Vec2& R, double magR, const Vec2& st
     const double inv1 = 1.0 / magR, inv2 = 1.0 / magR2, invSigma = 1.0 / sigma_;
     const Vec2 gradB = (sum / (4.0 * b)) * (R * inv1 + R2 * inv2);
     return V0_ * invSigma * std::exp(-b * invSigma) * gradB;
+}
+
+int SocialForcesAvoidance::pairLoopPath() { return gPairLoopPath.load(); }
+
+bool SocialForcesAvoidance::setPairLoopPath(int path) {
+    if (!cpuRuns(path)) return false;
+    gPairLoopPath.store(path);
+    return true;
 }
 
 void SocialForcesAvoidance::prepare(const StepContext& ctx) {

@@ -35,6 +35,14 @@ public:
     /// Force from a wall whose nearest point is at `diff` = x_α − nearest.
     Vec2 wallForce(const Vec2& diff) const;
 
+    /// The pair loop's builds (issue 20), which give the same bits: 0 generic (two pairs at a time
+    /// in SSE2 registers on x86-64; the only one elsewhere), 1 AVX2 (four), 2 AVX-512 (eight).
+    /// The best this CPU runs is used, for every instance.
+    static int pairLoopPath();
+    /// Uses build `path` from now on, for every instance (tests compare the builds); returns false
+    /// and changes nothing when this CPU cannot run it.
+    static bool setPairLoopPath(int path);
+
     /// What the pair loop reads of a neighbour β (set in prepare()): its step s = v_β Δt e_β
     /// (with relative velocities v_β Δt), |s|² (0 with relative velocities: taken per pair) and
     /// its radius. 32 bytes: one cache line, not three arrays.

@@ -1,6 +1,7 @@
 // CrowdHealth tests — SocialForcesAvoidance's SIMD pair loop (issue 20): its exponential
-// against std::exp, and the whole agent force against the scalar pair force summed in list order,
-// for every combination of the model's switches and lists of every length modulo the lane count.
+// against std::exp, the whole agent force against the scalar pair force summed in list order,
+// for every combination of the model's switches and lists of every length modulo the lane count,
+// and its generic, AVX2 and AVX-512 builds against each other, bit for bit.
 #define BOOST_TEST_MODULE policies_social_forces_simd
 #include <boost/test/unit_test.hpp>
 
@@ -10,6 +11,7 @@
 #include "SocialForcesSimd.h"
 
 #include <cmath>
+#include <cstring>
 #include <random>
 
 using namespace ch;
@@ -61,11 +63,15 @@ namespace {
 /// A crowd of n + 1 agents round agent 0 (a few in contact with it, some beyond range 5 m), and
 /// SocialForcesAvoidance with the given switches: returns acceleration() and the scalar reference,
 /// Σ_j w_j pairForce(R_j, s_j) in list order, divided by the mass.
-std::pair<Vec2, Vec2> forceAndReference(int n, bool relative, bool cutoff, bool atRest, std::uint64_t seed) {
+/// With `atRange`, the first four neighbours sit at exactly the range, 5 m (|(3, 4)| = 5 exactly).
+std::pair<Vec2, Vec2> forceAndReference(int n, bool relative, bool cutoff, bool atRest, std::uint64_t seed,
+                                        bool atRange = false) {
     test::Frame f;
     std::mt19937_64 rng(seed);
     std::uniform_real_distribution<double> u(-1.0, 1.0);
     f.add(Vec2(0, 0), Vec2(10, 3), atRest ? Vec2(0, 0) : Vec2(1.1, 0.2));
+    if (atRange)
+        for (const Vec2& p : {Vec2(3, 4), Vec2(-5, 0), Vec2(0, -5), Vec2(4, -3)}) f.add(p, Vec2(u(rng), 9), Vec2(u(rng), u(rng)));
     for (int k = 0; k < n; ++k) {
         // Most within 5 m, one in five in contact (closer than 0.6 m), a few beyond 5 m.
         const double r = k % 5 == 0 ? 0.1 + 0.45 * std::abs(u(rng)) : 0.7 + 5.0 * std::abs(u(rng));
@@ -123,4 +129,40 @@ BOOST_AUTO_TEST_CASE(simd_force_equals_scalar_pair_sum) {
                         if (n >= 4) BOOST_TEST(want.norm() > 0);  // the comparison is not 0 == 0
                     }
                 }
+}
+
+BOOST_AUTO_TEST_CASE(every_pair_loop_build_gives_the_same_bits) {
+    // The generic (SSE2), AVX2 and AVX-512 builds of the pair loop do the same operations lane by
+    // lane and sum in list order: bit for bit the same force, for every list length modulo the
+    // lanes (2, 4 and 8) and every switch. Builds this CPU cannot run are skipped (and said so).
+    const int best = SocialForcesAvoidance::pairLoopPath();
+    BOOST_TEST(!SocialForcesAvoidance::setPairLoopPath(3));  // no such build
+    BOOST_TEST(!SocialForcesAvoidance::setPairLoopPath(-1));
+    BOOST_TEST(SocialForcesAvoidance::pairLoopPath() == best);
+    int compared = 0;
+    for (int path : {1, 2}) {
+        if (!SocialForcesAvoidance::setPairLoopPath(path)) {
+            BOOST_TEST_MESSAGE("pair-loop build " << path << " not run: this CPU lacks it");
+            continue;
+        }
+        ++compared;
+        for (int n : {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 15, 16, 17, 23, 24, 25, 57, 80})
+            for (bool relative : {false, true})
+                for (bool cutoff : {false, true})
+                    for (bool atRest : {false, true}) {
+                        BOOST_REQUIRE(SocialForcesAvoidance::setPairLoopPath(path));
+                        // Odd lengths also with four neighbours at exactly the range (the ≤ test).
+                        const bool atRange = n % 2 == 1;
+                        const Vec2 got = forceAndReference(n, relative, cutoff, atRest, 500 + n, atRange).first;
+                        BOOST_REQUIRE(SocialForcesAvoidance::setPairLoopPath(0));
+                        const Vec2 generic = forceAndReference(n, relative, cutoff, atRest, 500 + n, atRange).first;
+                        BOOST_TEST_CONTEXT("build " << path << " n " << n << " relative " << relative << " cutoff "
+                                                    << cutoff << " at rest " << atRest) {
+                            BOOST_TEST(std::memcmp(&got, &generic, sizeof got) == 0);
+                            if (n >= 4) BOOST_TEST(generic.norm() > 0);  // not 0 == 0
+                        }
+                    }
+    }
+    BOOST_TEST_MESSAGE("builds compared with the generic one: " << compared);
+    BOOST_TEST(SocialForcesAvoidance::setPairLoopPath(best));
 }
