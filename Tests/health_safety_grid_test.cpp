@@ -7,10 +7,14 @@
 
 #include "test_support.h"
 
+#include "crowdhealth/core/simd.h"
 #include "crowdhealth/health/safety.h"
 #include "crowdhealth/io/output.h"
 
+#include <omp.h>
+
 #include <cmath>
+#include <cstring>
 #include <map>
 #include <random>
 #include <sstream>
@@ -131,6 +135,91 @@ BOOST_AUTO_TEST_CASE(crowd_field_is_the_gaussian_sum_over_the_agents_within_reac
         }
         BOOST_TEST(withinReach > f.size() / 2);
     }
+}
+
+/// The bits of a double (to compare fields bit for bit: == would take −0 for +0).
+std::uint64_t bitsOf(double v) {
+    std::uint64_t b;
+    std::memcpy(&b, &v, sizeof b);
+    return b;
+}
+
+BOOST_AUTO_TEST_CASE(crowd_field_has_the_same_bits_for_any_thread_count) {
+    // The scatter shares the rows among the threads (each owns a band and adds the agents within
+    // reach of it in agent order): every density, velocity, flag and count must be the same bits
+    // with 1 to 4 threads, for reach boxes of 3 to 13 columns and bands that split them. (The
+    // suite runs with CROWDHEALTH_PARALLEL_MIN_AGENTS=1, so even small crowds use the team.)
+    const int before = omp_get_max_threads();
+    for (const auto& [cell, R] : {std::pair{1.0, 0.7}, {0.5, 1.1}, {0.25, 0.9}, {2.0, 0.4}}) {
+        const AgentStore a = randomCrowd(2500, -3.2, 4.1, 30, 40, 5);
+        omp_set_num_threads(1);
+        const CrowdField one = crowdField(a, cell, R);
+        BOOST_REQUIRE(one.size() > 0);
+        for (int threads = 2; threads <= 4; ++threads) {
+            omp_set_num_threads(threads);
+            const CrowdField f = crowdField(a, cell, R);
+            BOOST_REQUIRE(f.size() == one.size());
+            std::size_t differ = 0;
+            for (std::size_t c = 0; c < f.size(); ++c)
+                if (f.ix[c] != one.ix[c] || f.iy[c] != one.iy[c] || bitsOf(f.density[c]) != bitsOf(one.density[c]) ||
+                    bitsOf(f.velocity[c].x()) != bitsOf(one.velocity[c].x()) ||
+                    bitsOf(f.velocity[c].y()) != bitsOf(one.velocity[c].y()) || f.weighted[c] != one.weighted[c] ||
+                    f.people[c] != one.people[c])
+                    ++differ;
+            BOOST_TEST(differ == 0u, "cell " << cell << " R " << R << ", " << threads << " threads");
+            BOOST_TEST(f.cellOfAgent == one.cellOfAgent);
+        }
+    }
+    omp_set_num_threads(before);
+}
+
+BOOST_AUTO_TEST_CASE(crowd_field_knows_each_agents_cell) {
+    // cellOfAgent: the entry of the cell each agent's centre lies in, on the dense rectangle and
+    // on the cells of a crowd scattered far apart.
+    AgentStore a = randomCrowd(400, -5.5, 2.0, 20, 9, 13);
+    for (int scattered = 0; scattered < 2; ++scattered) {
+        if (scattered == 1)
+            for (std::size_t i = 0; i < a.size(); i += 3) a.pos[i] += Vec2(4000, -2500);
+        const CrowdField f = crowdField(a, 0.5, 0.7);
+        BOOST_REQUIRE(f.cellOfAgent.size() == a.size());
+        for (std::size_t i = 0; i < a.size(); ++i) {
+            const std::size_t k = f.cellOfAgent[i];
+            BOOST_REQUIRE(k < f.size());
+            BOOST_TEST(f.ix[k] == static_cast<int>(std::floor(a.pos[i].x() / 0.5)));
+            BOOST_TEST(f.iy[k] == static_cast<int>(std::floor(a.pos[i].y() / 0.5)));
+        }
+    }
+}
+
+BOOST_AUTO_TEST_CASE(fruin_level_by_comparisons_is_the_level_by_area_to_the_last_bit) {
+    // fruinLevel compares the density with five bounds found from the definition (the first level
+    // whose lower bound of area per person, 35, 25, 15, 10, 5 ft², the area 1/density reaches);
+    // here the definition written out, at the doubles next to each bound and at random densities.
+    auto byArea = [](double density) {
+        if (!(density > 0)) return 'A';
+        const double feet = 1.0 / density / 0.09290304;
+        const double bounds[] = {35, 25, 15, 10, 5};
+        for (int k = 0; k < 5; ++k)
+            if (feet >= bounds[k]) return static_cast<char>('A' + k);
+        return 'F';
+    };
+    std::size_t checked = 0;
+    for (const double feet : {35.0, 25.0, 15.0, 10.0, 5.0}) {
+        double d = 1.0 / (feet * 0.09290304);
+        for (int k = 0; k < 40; ++k) d = std::nextafter(d, 0.0);
+        for (int k = 0; k < 80; ++k, d = std::nextafter(d, 1e9), ++checked)
+            BOOST_TEST(fruinLevel(d) == byArea(d), feet << " ft2, density " << d);
+    }
+    std::mt19937_64 rng(17);
+    std::uniform_real_distribution<double> u(-1.0, 12.0);
+    for (int k = 0; k < 20000; ++k, ++checked) {
+        const double d = u(rng);
+        BOOST_TEST(fruinLevel(d) == byArea(d), d);
+    }
+    for (const double d : {0.0, -0.0, 1e-300, 5e-324, 1e300, std::numeric_limits<double>::infinity(),
+                           std::numeric_limits<double>::quiet_NaN()})
+        BOOST_TEST(fruinLevel(d) == byArea(d), d);
+    BOOST_TEST(checked == 20400u);
 }
 
 BOOST_AUTO_TEST_CASE(heat_map_of_a_crowd_walking_away_keeps_every_cell_it_left) {

@@ -2,6 +2,7 @@
 #include "crowdhealth/health/safety.h"
 
 #include "crowdhealth/core/grid.h"
+#include "crowdhealth/core/parallel.h"
 #include "crowdhealth/core/simd.h"
 #include "crowdhealth/health/health.h"
 #include "crowdhealth/io/output.h"
@@ -335,8 +336,9 @@ CrowdField crowdField(const AgentStore& agents, double cellSize, double R) {
         g.negInvR2 = -invR2;
         const std::size_t sumCells = static_cast<std::size_t>(g.ny) * g.stride;
         std::vector<double> sw(sumCells, 0.0), swx(sumCells, 0.0), swy(sumCells, 0.0);
-        // Two bands or more only where there is enough to share (a band walks every agent).
-        const int threads = n >= 2048 && g.ny >= 16 ? std::min(omp_get_max_threads(), g.ny / 8) : 1;
+        // Two bands or more only for a crowd that shares its loops (core/parallel.h) and rows
+        // enough that a band is more than its agents' reach (each band walks every agent).
+        const int threads = parallelNeighbourLoop(n) ? std::max(1, std::min(omp_get_max_threads(), g.ny / 8)) : 1;
 #pragma omp parallel num_threads(threads) if (threads > 1)
         {
             const int t = omp_get_thread_num(), bands = omp_get_num_threads();
