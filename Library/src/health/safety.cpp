@@ -208,10 +208,11 @@ struct FruinBounds {
 /// Fruin's level 0 (A) … 5 (F) of a density, as fruinLevelByArea gives it, by five comparisons
 /// instead of two divisions (once per cell and record in the safety recorder). NaN and densities
 /// ≤ 0 are level A.
-int fruinIndex(double density) {
-    static const FruinBounds b;
+const FruinBounds fruinBounds;  // before main (this file's constants are constexpr)
+
+inline int fruinIndex(double density) {
     int level = 0;
-    for (const double bound : b.bounds) level += density > bound;
+    for (const double bound : fruinBounds.bounds) level += density > bound;
     return level;
 }
 
@@ -522,18 +523,16 @@ void SafetyRecorder::recordAt(const AgentStore& a, double t, const HealthLayer* 
             ++people[Crush];
         }
     }
-    for (std::size_t k = 0; k < f.size(); ++k) {
-        Cell* cellPtr;
-        if (flat) {
-            const std::size_t g = flatIndex(k);
-            present_[g] = 1;
-            cellPtr = &grid_[g];
-            // The cells of a row follow each other; fetch those a few entries on.
-            if (k + 4 < f.size()) __builtin_prefetch(&grid_[flatIndex(k + 4)]);
-        } else {
-            cellPtr = &cellAt(f.ix[k], f.iy[k]);
-        }
-        Cell& cell = *cellPtr;
+    // The cells: each entry writes only its own cell, and what they add up (whether a condition
+    // held, how many people, the largest pressure) is exact in any order, so with several threads
+    // (the cells on the flat grid, a field of thousands of cells) each takes a share of the
+    // entries and the results are the same bits.
+    struct Tally {
+        bool held[kConditions] = {false, false, false, false, false};
+        std::size_t people[kConditions] = {0, 0, 0, 0, 0};
+        double maxPressure = 0;
+    };
+    auto evaluate = [&](Cell& cell, std::size_t k, Tally& tally) {
         cell.maxDensity = std::max(cell.maxDensity, f.density[k]);
         if (health != nullptr) cell.maxContact = std::max(cell.maxContact, contact[k]);
         // Fruin's levels: how long each has held here without a break (a cell missed by a record
@@ -551,8 +550,8 @@ void SafetyRecorder::recordAt(const AgentStore& a, double t, const HealthLayer* 
         for (int l = 0; l < 3; ++l)
             if (f.density[k] > levels[l]) {
                 cell.seconds[l] += dt;
-                held[l] = true;
-                people[l] += static_cast<std::size_t>(f.people[k]);
+                tally.held[l] = true;
+                tally.people[l] += static_cast<std::size_t>(f.people[k]);
             }
         // Crowd pressure: the variance in time of the local velocity at this place, times
         // the local density (both averaged over the window). A cell with no agent within
@@ -567,7 +566,7 @@ void SafetyRecorder::recordAt(const AgentStore& a, double t, const HealthLayer* 
             cell.meanSquaredSpeed += w * (v.squaredNorm() - cell.meanSquaredSpeed);
             cell.sampledAt = t;
             pressure = cell.meanDensity * std::max(0.0, cell.meanSquaredSpeed - cell.meanVelocity.squaredNorm());
-            maxPressure_ = std::max(maxPressure_, pressure);
+            tally.maxPressure = std::max(tally.maxPressure, pressure);
         }
         // Crowd turbulence is a dense-crowd phenomenon (Helbing et al. 2007 observed it at
         // 7–9 persons/m²). Where people merely pass the same place in different directions at
@@ -576,9 +575,38 @@ void SafetyRecorder::recordAt(const AgentStore& a, double t, const HealthLayer* 
         // (docs/crowd-health.md shows a sparse crossing that needs this gate).
         if (pressure > t_.crowdPressureCritical && cell.meanDensity > t_.densityCaution) {
             cell.seconds[Pressure] += dt;
-            held[Pressure] = true;
-            people[Pressure] += static_cast<std::size_t>(f.people[k]);
+            tally.held[Pressure] = true;
+            tally.people[Pressure] += static_cast<std::size_t>(f.people[k]);
         }
+    };
+    auto merge = [&](const Tally& tally) {
+        for (int c = 0; c < kConditions; ++c) {
+            held[c] = held[c] || tally.held[c];
+            people[c] += tally.people[c];
+        }
+        maxPressure_ = std::max(maxPressure_, tally.maxPressure);
+    };
+    if (flat) {
+        const long count = static_cast<long>(f.size());
+#pragma omp parallel if (parallelCheapLoop(f.size()))
+        {
+            Tally tally;
+#pragma omp for schedule(static)
+            for (long kk = 0; kk < count; ++kk) {
+                const std::size_t k = static_cast<std::size_t>(kk);
+                const std::size_t g = flatIndex(k);
+                present_[g] = 1;
+                // The cells of a row follow each other; fetch those a few entries on.
+                if (kk + 4 < count) __builtin_prefetch(&grid_[flatIndex(k + 4)]);
+                evaluate(grid_[g], k, tally);
+            }
+#pragma omp critical(ch_safety_record_merge)
+            merge(tally);
+        }
+    } else {
+        Tally tally;
+        for (std::size_t k = 0; k < f.size(); ++k) evaluate(cellAt(f.ix[k], f.iy[k]), k, tally);
+        merge(tally);
     }
     std::sort(crushCells.begin(), crushCells.end());
     crushCells.erase(std::unique(crushCells.begin(), crushCells.end()), crushCells.end());
