@@ -7,9 +7,11 @@
 
 #include "test_support.h"
 
+#include "crowdhealth/core/parallel.h"
 #include "crowdhealth/core/simd.h"
 #include "crowdhealth/health/safety.h"
 #include "crowdhealth/io/output.h"
+#include "crowdhealth/io/xml.h"
 
 #include <omp.h>
 
@@ -137,12 +139,14 @@ BOOST_AUTO_TEST_CASE(crowd_field_is_the_gaussian_sum_over_the_agents_within_reac
     }
 }
 
+namespace {
 /// The bits of a double (to compare fields bit for bit: == would take −0 for +0).
 std::uint64_t bitsOf(double v) {
     std::uint64_t b;
     std::memcpy(&b, &v, sizeof b);
     return b;
 }
+}  // namespace
 
 BOOST_AUTO_TEST_CASE(crowd_field_has_the_same_bits_for_any_thread_count) {
     // The scatter shares the rows among the threads (each owns a band and adds the agents within
@@ -171,6 +175,46 @@ BOOST_AUTO_TEST_CASE(crowd_field_has_the_same_bits_for_any_thread_count) {
         }
     }
     omp_set_num_threads(before);
+}
+
+BOOST_AUTO_TEST_CASE(safety_records_are_the_same_for_any_thread_count) {
+    // The base-case door (dense in front of the door: the density and crowd pressure conditions
+    // hold) for 40 s, recorded at every coarse step by four recorders, on 1 to 4 threads (the
+    // scatter's bands and the cells of a record shared out, every crowd on the team): the heat
+    // map, the crowd_pressure column and the verdict are the same bytes.
+    const std::size_t minAgents = parallelMinAgents();
+    setParallelMinAgents(1);
+    const int before = omp_get_max_threads();
+    Diagnostics diags;
+    auto spec = loadScenario(std::string(CH_SOURCE_DIR) + "/Examples/doorway/base-case.xml", diags);
+    BOOST_REQUIRE(spec.has_value());
+    spec->endTime = 40;
+    Simulation sim(*spec);
+    std::vector<SafetyRecorder> recorders(4, SafetyRecorder(spec->safety));
+    std::size_t records = 0, pressureDiffers = 0;
+    while (true) {
+        for (int k = 0; k < 4; ++k) {
+            omp_set_num_threads(k + 1);
+            recorders[static_cast<std::size_t>(k)].record(sim);
+        }
+        ++records;
+        for (const SafetyRecorder& r : recorders)
+            if (bitsOf(r.maxPressure()) != bitsOf(recorders[0].maxPressure())) ++pressureDiffers;
+        if (sim.finished()) break;
+        sim.setThreads(1);
+        sim.stepCoarse();
+    }
+    BOOST_TEST(records == 401u);
+    BOOST_TEST(pressureDiffers == 0u);
+    const Verdict one = recorders[0].verdict(sim);
+    BOOST_TEST(one.reasons.size() >= 2u);  // density and crowd pressure
+    for (int k = 1; k < 4; ++k) {
+        const SafetyRecorder& r = recorders[static_cast<std::size_t>(k)];
+        BOOST_TEST(r.heatmapCsv() == recorders[0].heatmapCsv(), k + 1 << " threads");
+        BOOST_TEST(verdictJson(r.verdict(sim)) == verdictJson(one), k + 1 << " threads");
+    }
+    omp_set_num_threads(before);
+    setParallelMinAgents(minAgents);
 }
 
 BOOST_AUTO_TEST_CASE(crowd_field_knows_each_agents_cell) {
