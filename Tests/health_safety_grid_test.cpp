@@ -192,7 +192,14 @@ BOOST_AUTO_TEST_CASE(safety_records_are_the_same_for_any_thread_count) {
     Simulation sim(*spec);
     std::vector<SafetyRecorder> recorders(4, SafetyRecorder(spec->safety));
     std::size_t records = 0, pressureDiffers = 0;
+    std::map<std::pair<int, int>, double> contact;  // (x, y) → the largest |contact acceleration| there
+    const double c = spec->safety.cellSize;
     while (true) {
+        const AgentStore& a = sim.agents();
+        for (std::size_t i = 0; i < a.size(); ++i) {
+            double& m = contact[{static_cast<int>(std::floor(a.pos[i].x() / c)), static_cast<int>(std::floor(a.pos[i].y() / c))}];
+            m = std::max(m, a.contactAccel[i].norm());
+        }
         for (int k = 0; k < 4; ++k) {
             omp_set_num_threads(k + 1);
             recorders[static_cast<std::size_t>(k)].record(sim);
@@ -206,6 +213,28 @@ BOOST_AUTO_TEST_CASE(safety_records_are_the_same_for_any_thread_count) {
     }
     BOOST_TEST(records == 401u);
     BOOST_TEST(pressureDiffers == 0u);
+    // The max_contact_accel column: each cell's largest contact acceleration of the agents in it.
+    std::istringstream heat(recorders[0].heatmapCsv());
+    std::string line;
+    std::getline(heat, line);
+    std::size_t rows = 0, withContact = 0, wrong = 0;
+    while (std::getline(heat, line)) {
+        std::istringstream row(line);
+        std::string x, y, density, accel;
+        std::getline(row, x, ',');
+        std::getline(row, y, ',');
+        std::getline(row, density, ',');
+        std::getline(row, accel, ',');
+        const auto it = contact.find({static_cast<int>(std::floor(std::stod(x) / c)), static_cast<int>(std::floor(std::stod(y) / c))});
+        std::string want;
+        appendNumber(want, it == contact.end() ? 0.0 : it->second);
+        if (accel != want) ++wrong;
+        ++rows;
+        if (it != contact.end() && it->second > 0) ++withContact;
+    }
+    BOOST_TEST(wrong == 0u);
+    BOOST_TEST(withContact > 10u);
+    BOOST_TEST(rows > withContact);
     const Verdict one = recorders[0].verdict(sim);
     BOOST_TEST(one.reasons.size() >= 2u);  // density and crowd pressure
     for (int k = 1; k < 4; ++k) {
