@@ -7,10 +7,16 @@
 
 #include "test_support.h"
 
+#include "crowdhealth/core/parallel.h"
+#include "crowdhealth/core/simd.h"
 #include "crowdhealth/health/safety.h"
 #include "crowdhealth/io/output.h"
+#include "crowdhealth/io/xml.h"
+
+#include <omp.h>
 
 #include <cmath>
+#include <cstring>
 #include <map>
 #include <random>
 #include <sstream>
@@ -131,6 +137,162 @@ BOOST_AUTO_TEST_CASE(crowd_field_is_the_gaussian_sum_over_the_agents_within_reac
         }
         BOOST_TEST(withinReach > f.size() / 2);
     }
+}
+
+namespace {
+/// The bits of a double (to compare fields bit for bit: == would take −0 for +0).
+std::uint64_t bitsOf(double v) {
+    std::uint64_t b;
+    std::memcpy(&b, &v, sizeof b);
+    return b;
+}
+}  // namespace
+
+BOOST_AUTO_TEST_CASE(crowd_field_has_the_same_bits_for_any_thread_count) {
+    // The scatter shares the rows among the threads (each owns a band and adds the agents within
+    // reach of it in agent order): every density, velocity, flag and count must be the same bits
+    // with 1 to 4 threads, for reach boxes of 3 to 13 columns and bands that split them. (The
+    // suite runs with CROWDHEALTH_PARALLEL_MIN_AGENTS=1, so even small crowds use the team.)
+    const int before = omp_get_max_threads();
+    for (const auto& [cell, R] : {std::pair{1.0, 0.7}, {0.5, 1.1}, {0.25, 0.9}, {2.0, 0.4}}) {
+        const AgentStore a = randomCrowd(2500, -3.2, 4.1, 30, 40, 5);
+        omp_set_num_threads(1);
+        const CrowdField one = crowdField(a, cell, R);
+        BOOST_REQUIRE(one.size() > 0);
+        for (int threads = 2; threads <= 4; ++threads) {
+            omp_set_num_threads(threads);
+            const CrowdField f = crowdField(a, cell, R);
+            BOOST_REQUIRE(f.size() == one.size());
+            std::size_t differ = 0;
+            for (std::size_t c = 0; c < f.size(); ++c)
+                if (f.ix[c] != one.ix[c] || f.iy[c] != one.iy[c] || bitsOf(f.density[c]) != bitsOf(one.density[c]) ||
+                    bitsOf(f.velocity[c].x()) != bitsOf(one.velocity[c].x()) ||
+                    bitsOf(f.velocity[c].y()) != bitsOf(one.velocity[c].y()) || f.weighted[c] != one.weighted[c] ||
+                    f.people[c] != one.people[c])
+                    ++differ;
+            BOOST_TEST(differ == 0u, "cell " << cell << " R " << R << ", " << threads << " threads");
+            BOOST_TEST(f.cellOfAgent == one.cellOfAgent);
+        }
+    }
+    omp_set_num_threads(before);
+}
+
+BOOST_AUTO_TEST_CASE(safety_records_are_the_same_for_any_thread_count) {
+    // The base-case door (dense in front of the door: the density and crowd pressure conditions
+    // hold) for 40 s, recorded at every coarse step by four recorders, on 1 to 4 threads (the
+    // scatter's bands and the cells of a record shared out, every crowd on the team): the heat
+    // map, the crowd_pressure column and the verdict are the same bytes.
+    const std::size_t minAgents = parallelMinAgents();
+    setParallelMinAgents(1);
+    const int before = omp_get_max_threads();
+    Diagnostics diags;
+    auto spec = loadScenario(std::string(CH_SOURCE_DIR) + "/Examples/doorway/base-case.xml", diags);
+    BOOST_REQUIRE(spec.has_value());
+    spec->endTime = 40;
+    Simulation sim(*spec);
+    std::vector<SafetyRecorder> recorders(4, SafetyRecorder(spec->safety));
+    std::size_t records = 0, pressureDiffers = 0;
+    std::map<std::pair<int, int>, double> contact;  // (x, y) → the largest |contact acceleration| there
+    const double c = spec->safety.cellSize;
+    while (true) {
+        const AgentStore& a = sim.agents();
+        for (std::size_t i = 0; i < a.size(); ++i) {
+            double& m = contact[{static_cast<int>(std::floor(a.pos[i].x() / c)), static_cast<int>(std::floor(a.pos[i].y() / c))}];
+            m = std::max(m, a.contactAccel[i].norm());
+        }
+        for (int k = 0; k < 4; ++k) {
+            omp_set_num_threads(k + 1);
+            recorders[static_cast<std::size_t>(k)].record(sim);
+        }
+        ++records;
+        for (const SafetyRecorder& r : recorders)
+            if (bitsOf(r.maxPressure()) != bitsOf(recorders[0].maxPressure())) ++pressureDiffers;
+        if (sim.finished()) break;
+        sim.setThreads(1);
+        sim.stepCoarse();
+    }
+    BOOST_TEST(records == 401u);
+    BOOST_TEST(pressureDiffers == 0u);
+    // The max_contact_accel column: each cell's largest contact acceleration of the agents in it.
+    std::istringstream heat(recorders[0].heatmapCsv());
+    std::string line;
+    std::getline(heat, line);
+    std::size_t rows = 0, withContact = 0, wrong = 0;
+    while (std::getline(heat, line)) {
+        std::istringstream row(line);
+        std::string x, y, density, accel;
+        std::getline(row, x, ',');
+        std::getline(row, y, ',');
+        std::getline(row, density, ',');
+        std::getline(row, accel, ',');
+        const auto it = contact.find({static_cast<int>(std::floor(std::stod(x) / c)), static_cast<int>(std::floor(std::stod(y) / c))});
+        std::string want;
+        appendNumber(want, it == contact.end() ? 0.0 : it->second);
+        if (accel != want) ++wrong;
+        ++rows;
+        if (it != contact.end() && it->second > 0) ++withContact;
+    }
+    BOOST_TEST(wrong == 0u);
+    BOOST_TEST(withContact > 10u);
+    BOOST_TEST(rows > withContact);
+    const Verdict one = recorders[0].verdict(sim);
+    BOOST_TEST(one.reasons.size() >= 2u);  // density and crowd pressure
+    for (int k = 1; k < 4; ++k) {
+        const SafetyRecorder& r = recorders[static_cast<std::size_t>(k)];
+        BOOST_TEST(r.heatmapCsv() == recorders[0].heatmapCsv(), k + 1 << " threads");
+        BOOST_TEST(verdictJson(r.verdict(sim)) == verdictJson(one), k + 1 << " threads");
+    }
+    omp_set_num_threads(before);
+    setParallelMinAgents(minAgents);
+}
+
+BOOST_AUTO_TEST_CASE(crowd_field_knows_each_agents_cell) {
+    // cellOfAgent: the entry of the cell each agent's centre lies in, on the dense rectangle and
+    // on the cells of a crowd scattered far apart.
+    AgentStore a = randomCrowd(400, -5.5, 2.0, 20, 9, 13);
+    for (int scattered = 0; scattered < 2; ++scattered) {
+        if (scattered == 1)
+            for (std::size_t i = 0; i < a.size(); i += 3) a.pos[i] += Vec2(4000, -2500);
+        const CrowdField f = crowdField(a, 0.5, 0.7);
+        BOOST_REQUIRE(f.cellOfAgent.size() == a.size());
+        for (std::size_t i = 0; i < a.size(); ++i) {
+            const std::size_t k = f.cellOfAgent[i];
+            BOOST_REQUIRE(k < f.size());
+            BOOST_TEST(f.ix[k] == static_cast<int>(std::floor(a.pos[i].x() / 0.5)));
+            BOOST_TEST(f.iy[k] == static_cast<int>(std::floor(a.pos[i].y() / 0.5)));
+        }
+    }
+}
+
+BOOST_AUTO_TEST_CASE(fruin_level_by_comparisons_is_the_level_by_area_to_the_last_bit) {
+    // fruinLevel compares the density with five bounds found from the definition (the first level
+    // whose lower bound of area per person, 35, 25, 15, 10, 5 ft², the area 1/density reaches);
+    // here the definition written out, at the doubles next to each bound and at random densities.
+    auto byArea = [](double density) {
+        if (!(density > 0)) return 'A';
+        const double feet = 1.0 / density / 0.09290304;
+        const double bounds[] = {35, 25, 15, 10, 5};
+        for (int k = 0; k < 5; ++k)
+            if (feet >= bounds[k]) return static_cast<char>('A' + k);
+        return 'F';
+    };
+    std::size_t checked = 0;
+    for (const double feet : {35.0, 25.0, 15.0, 10.0, 5.0}) {
+        double d = 1.0 / (feet * 0.09290304);
+        for (int k = 0; k < 40; ++k) d = std::nextafter(d, 0.0);
+        for (int k = 0; k < 80; ++k, d = std::nextafter(d, 1e9), ++checked)
+            BOOST_TEST(fruinLevel(d) == byArea(d), feet << " ft2, density " << d);
+    }
+    std::mt19937_64 rng(17);
+    std::uniform_real_distribution<double> u(-1.0, 12.0);
+    for (int k = 0; k < 20000; ++k, ++checked) {
+        const double d = u(rng);
+        BOOST_TEST(fruinLevel(d) == byArea(d), d);
+    }
+    for (const double d : {0.0, -0.0, 1e-300, 5e-324, 1e300, std::numeric_limits<double>::infinity(),
+                           std::numeric_limits<double>::quiet_NaN()})
+        BOOST_TEST(fruinLevel(d) == byArea(d), d);
+    BOOST_TEST(checked == 20400u);
 }
 
 BOOST_AUTO_TEST_CASE(heat_map_of_a_crowd_walking_away_keeps_every_cell_it_left) {

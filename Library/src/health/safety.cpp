@@ -2,6 +2,7 @@
 #include "crowdhealth/health/safety.h"
 
 #include "crowdhealth/core/grid.h"
+#include "crowdhealth/core/parallel.h"
 #include "crowdhealth/core/simd.h"
 #include "crowdhealth/health/health.h"
 #include "crowdhealth/io/output.h"
@@ -10,6 +11,8 @@
 #include <cctype>
 #include <cmath>
 #include <cstring>
+
+#include <omp.h>
 
 // simd::DV (four doubles) passes by value between inlined helpers only: no call crosses an ABI.
 #pragma GCC diagnostic ignored "-Wpsabi"
@@ -23,19 +26,103 @@ int cellIndex(double v, double c) { return static_cast<int>(std::floor(v / c)); 
 std::string fmt(double v, int digits = 3) { return formatNumber(v, digits); }
 
 /// e[l] = e^{s·d2[l]} for l < n (n a multiple of simd::kLanes, s·d2 ≤ 0), simd::expNonPositive
-/// four at a time: the crowd field's Gaussian weights. Compiled twice, like SocialForcesAvoidance's
-/// pair loop (one AVX2 register per four doubles where the CPU has AVX2, two SSE2 registers
-/// otherwise, chosen when the program starts): the same operations without fused multiply-add,
-/// so both give the same bits.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-__attribute__((target_clones("avx2", "default")))
-#endif
-void gaussianWeights(const double* d2, double* e, std::size_t n, double s) {
+/// four at a time: the crowd field's Gaussian weights. Lane by lane, so a weight's bits do not
+/// depend on where it sits in the buffer.
+[[gnu::always_inline]] inline void gaussianWeights(const double* d2, double* e, std::size_t n, double s) {
     for (std::size_t l = 0; l < n; l += simd::kLanes) {
         simd::DV v;
         std::memcpy(&v, d2 + l, sizeof v);
         v = simd::expNonPositive(v * simd::splat(s));
         std::memcpy(e + l, &v, sizeof v);
+    }
+}
+
+/// The dense rectangle of the crowd field as the scatter sees it: columns x0 … x0 + nx − 1, rows
+/// y0 … y0 + ny − 1; the sums of row y start at (y − y0)·stride, stride = nx + kLanes (the last
+/// vector of a row may spill into its own padding, never into the next row, which another thread
+/// may own).
+struct ScatterGrid {
+    int x0 = 0, y0 = 0, nx = 0, ny = 0;
+    std::size_t stride = 0;
+    double cellSize = 1, invCell = 1, reach = 0, reach2 = 0, negInvR2 = 0;
+};
+
+/// Adds the Gaussian weights of agents [0, n) to the cells of rows [rowLo, rowHi] (a band; every
+/// agent within reach of it, in agent order): sw += w, swx += w·v.x, swy += w·v.y, where
+/// w = e^{−dx²/R²}·e^{−dy²/R²} for the centres with dx² + dy² ≤ reach². Each cell's sums are those
+/// of the agents in order whatever the bands, so the bits do not depend on how the rows are shared.
+/// Compiled twice, like SocialForcesAvoidance's pair loop (one AVX2 register per four doubles where
+/// the CPU has AVX2, two SSE2 registers otherwise, chosen when the program starts): the same
+/// operations without fused multiply-add, so both give the same bits.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+__attribute__((target_clones("avx2", "default")))
+#endif
+void scatterRows(const Vec2* pos, const Vec2* vel, std::size_t n, const ScatterGrid& g, int rowLo, int rowHi,
+                 double* sw, double* swx, double* swy) {
+    using simd::DV;
+    using simd::IV;
+    constexpr int L = simd::kLanes;
+    // The columns and rows whose centre may lie within reach: |p − (k + ½)·c| ≤ reach, found in
+    // units of cells with a margin of 1e-6 cells for rounding (the disc test below decides).
+    const double rc = g.reach * g.invCell + 1e-6;
+    const int box = static_cast<int>(std::ceil(2 * rc)) + 1;
+    std::vector<double> d2(static_cast<std::size_t>(2 * box + 2 * L), 0.0), e(d2.size(), 0.0);
+    const DV r2 = simd::splat(g.reach2), zero = simd::splat(0.0);
+    const IV laneIndex = {0, 1, 2, 3};
+    const int xLast = g.x0 + g.nx - 1;
+    for (std::size_t i = 0; i < n; ++i) {
+        const Vec2 p = pos[i];
+        const double cy = p.y() * g.invCell - 0.5;
+        const int ya = std::max(rowLo, static_cast<int>(std::ceil(cy - rc)));
+        const int yb = std::min(rowHi, static_cast<int>(std::floor(cy + rc)));
+        if (ya > yb) continue;
+        const double cx = p.x() * g.invCell - 0.5;
+        const int xa = std::max(g.x0, static_cast<int>(std::ceil(cx - rc)));
+        const int xb = std::min(xLast, static_cast<int>(std::floor(cx + rc)));
+        if (xa > xb) continue;
+        const int mx = xb - xa + 1, my = yb - ya + 1;
+        // d² of the columns, then of the rows, in one buffer: one call of the exponential for both.
+        for (int k = 0; k < mx; ++k) {
+            const double d = p.x() - (xa + k + 0.5) * g.cellSize;
+            d2[static_cast<std::size_t>(k)] = d * d;
+        }
+        for (int k = 0; k < my; ++k) {
+            const double d = p.y() - (ya + k + 0.5) * g.cellSize;
+            d2[static_cast<std::size_t>(mx + k)] = d * d;
+        }
+        gaussianWeights(d2.data(), e.data(), static_cast<std::size_t>((mx + my + L - 1) / L * L), g.negInvR2);
+        const double* const dx2 = d2.data();
+        const double* const ex = e.data();
+        const DV vx = simd::splat(vel[i].x()), vy = simd::splat(vel[i].y());
+        for (int ky = 0; ky < my; ++ky) {
+            const double yy = d2[static_cast<std::size_t>(mx + ky)];
+            if (yy > g.reach2) continue;
+            const DV dyy = simd::splat(yy), wy = simd::splat(e[static_cast<std::size_t>(mx + ky)]);
+            const std::size_t row =
+                static_cast<std::size_t>(ya + ky - g.y0) * g.stride + static_cast<std::size_t>(xa - g.x0);
+            // Four cells at a time; a lane past the row's end or beyond reach adds +0, which leaves
+            // every sum as it was (a sum is never −0: it starts at +0), so the bits are those of
+            // skipping it.
+            for (int kx = 0; kx < mx; kx += L) {
+                DV dx, w, s, sx, sy;
+                std::memcpy(&dx, dx2 + kx, sizeof dx);
+                std::memcpy(&w, ex + kx, sizeof w);
+                const IV in = (dx + dyy <= r2) & (laneIndex + kx < mx);
+                w = simd::select(in, w * wy, zero);
+                double* const a = sw + row + static_cast<std::size_t>(kx);
+                double* const b = swx + row + static_cast<std::size_t>(kx);
+                double* const c = swy + row + static_cast<std::size_t>(kx);
+                std::memcpy(&s, a, sizeof s);
+                std::memcpy(&sx, b, sizeof sx);
+                std::memcpy(&sy, c, sizeof sy);
+                s += w;
+                sx += simd::select(in, w * vx, zero);
+                sy += simd::select(in, w * vy, zero);
+                std::memcpy(a, &s, sizeof s);
+                std::memcpy(b, &sx, sizeof sx);
+                std::memcpy(c, &sy, sizeof sy);
+            }
+        }
     }
 }
 }  // namespace
@@ -84,15 +171,54 @@ constexpr double kSquareFoot = 0.09290304;  // m²
 /// Fruin's walkway levels: the area per person (ft²) at which each of A…E begins.
 constexpr double kFruinFeet[] = {35, 25, 15, 10, 5};
 
-}  // namespace
-
-char fruinLevel(double density) {
+/// Fruin's level as defined: the first whose lower bound of area per person (ft²) the density's
+/// area per person reaches.
+char fruinLevelByArea(double density) {
     if (!(density > 0)) return 'A';
     const double feet = 1.0 / density / kSquareFoot;  // area per person, ft²
     for (int k = 0; k < 5; ++k)
         if (feet >= kFruinFeet[k]) return static_cast<char>('A' + k);
     return 'F';
 }
+
+/// bounds[k] = the largest density that fruinLevelByArea puts at level A + k or better (k = 0…4).
+/// The area per person falls as the density rises, rounding included (a division by a positive
+/// number is monotone), so the level is monotone in the density and these five numbers give it
+/// exactly: the level is A + the count of bounds below the density. Found once by bisection over
+/// the bits of the positive doubles (they order as their integer images).
+struct FruinBounds {
+    double bounds[5];
+    FruinBounds() {
+        for (int k = 0; k < 5; ++k) {
+            std::uint64_t lo = 0, hi = 0x7ff0000000000000u;  // +0 (level A), +inf (level F)
+            auto level = [](std::uint64_t bits) {
+                double d;
+                std::memcpy(&d, &bits, sizeof d);
+                return fruinLevelByArea(d) - 'A';
+            };
+            while (hi - lo > 1) {
+                const std::uint64_t mid = lo + (hi - lo) / 2;
+                (level(mid) <= k ? lo : hi) = mid;
+            }
+            std::memcpy(&bounds[k], &lo, sizeof lo);
+        }
+    }
+};
+
+/// Fruin's level 0 (A) … 5 (F) of a density, as fruinLevelByArea gives it, by five comparisons
+/// instead of two divisions (once per cell and record in the safety recorder). NaN and densities
+/// ≤ 0 are level A.
+const FruinBounds fruinBounds;  // before main (this file's constants are constexpr)
+
+inline int fruinIndex(double density) {
+    int level = 0;
+    for (const double bound : fruinBounds.bounds) level += density > bound;
+    return level;
+}
+
+}  // namespace
+
+char fruinLevel(double density) { return static_cast<char>('A' + fruinIndex(density)); }
 
 double fruinLowerDensity(char level) {
     // Level L (B…F) begins where the area per person drops below the lower bound of the level
@@ -176,79 +302,62 @@ CrowdField crowdField(const AgentStore& agents, double cellSize, double R) {
     const bool dense = cells > 0 && cells == static_cast<std::size_t>(f.ix.back() - f.ix.front() + 1) *
                                                  static_cast<std::size_t>(f.iy.back() - f.iy.front() + 1);
     const int nx = cells > 0 ? f.ix.back() - f.ix.front() + 1 : 0;
-    for (const Vec2& p : agents.pos) {
+    f.cellOfAgent.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        const Vec2& p = agents.pos[i];
         const int x = cellIndex(p.x(), cellSize), y = cellIndex(p.y(), cellSize);
         const std::size_t c = dense ? static_cast<std::size_t>(y - f.iy.front()) * static_cast<std::size_t>(nx) +
                                           static_cast<std::size_t>(x - f.ix.front())
                                     : f.find(x, y);
+        f.cellOfAgent[i] = c;
         if (c < cells) ++f.people[c];
     }
     const double norm = 1.0 / (kPi * R * R), invR2 = 1.0 / (R * R);
     if (dense) {
         // Dense rectangle: each agent adds its weight to the cell centres within reach (a scatter,
-        // in agent order, on one thread: no query per cell). The Gaussian is separable,
+        // in agent order: no query per cell). The Gaussian is separable,
         // e^{−(dx²+dy²)/R²} = e^{−dx²/R²}·e^{−dy²/R²}, and the centres lie on a lattice: per agent
         // one exponential per column and per row of its reach box (simd::expNonPositive, four at a
         // time) instead of one per cell, and a product per cell. The cells counted are those of
-        // the disc test dx² + dy² ≤ reach², as before; the weights differ from e^{−d²/R²} in the
-        // last bits (the product of two rounded exponentials, each within 5e-16). (The query per
-        // cell with glibc's exp was ~8 % of a 10k-agent social-forces run, issue 20.)
-        const int x0 = f.ix.front(), y0 = f.iy.front(), ny = f.iy.back() - y0 + 1;
-        struct Sums {
-            double w = 0, wx = 0, wy = 0;  // Σ weight, Σ weight · velocity
-        };
-        std::vector<Sums> sums(cells);
-        const double r2 = reach * reach;
-        // The columns and rows of the reach box: those whose centre may lie within reach.
-        const std::size_t box = static_cast<std::size_t>(std::ceil(2 * reach / cellSize)) + 2 + simd::kLanes;
-        // d² of the columns, then (from a multiple of the lanes) those of the rows, in one buffer: one
-        // call for both.
-        std::vector<double> d2(2 * box, 0.0), e(2 * box, 0.0);
-        auto lanes = [](int m) { return (m + simd::kLanes - 1) / simd::kLanes * simd::kLanes; };
-        for (std::size_t i = 0; i < n; ++i) {
-            const Vec2 p = agents.pos[i], v = agents.vel[i];
-            const int xa = std::max(x0, cellIndex(p.x() - reach, cellSize));
-            const int xb = std::min(x0 + nx - 1, cellIndex(p.x() + reach, cellSize));
-            const int ya = std::max(y0, cellIndex(p.y() - reach, cellSize));
-            const int yb = std::min(y0 + ny - 1, cellIndex(p.y() + reach, cellSize));
-            if (xa > xb || ya > yb) continue;
-            const int mx = xb - xa + 1, my = yb - ya + 1;
-            const std::size_t rows = static_cast<std::size_t>(lanes(mx));
-            double* const dx2 = d2.data();
-            double* const dy2 = d2.data() + rows;
-            for (int k = 0; k < mx; ++k) {
-                const double d = p.x() - (xa + k + 0.5) * cellSize;
-                dx2[k] = d * d;
-            }
-            for (int k = 0; k < my; ++k) {
-                const double d = p.y() - (ya + k + 0.5) * cellSize;
-                dy2[k] = d * d;
-            }
-            gaussianWeights(d2.data(), e.data(), rows + static_cast<std::size_t>(lanes(my)), -invR2);
-            const double* const ex = e.data();
-            const double* const ey = e.data() + rows;
-            for (int ky = 0; ky < my; ++ky) {
-                const double yy = dy2[ky];
-                if (yy > r2) continue;
-                const double wy = ey[ky];
-                const std::size_t row = static_cast<std::size_t>(ya + ky - y0) * static_cast<std::size_t>(nx) +
-                                        static_cast<std::size_t>(xa - x0);
-                // Without a branch: a cell beyond reach adds +0 or −0, which leaves every sum as it
-                // was (a sum that is still +0 stays +0), so the bits are those of skipping it.
-                for (int kx = 0; kx < mx; ++kx) {
-                    const double w = dx2[kx] + yy <= r2 ? ex[kx] * wy : 0.0;
-                    Sums& c = sums[row + static_cast<std::size_t>(kx)];
-                    c.w += w;
-                    c.wx += w * v.x();
-                    c.wy += w * v.y();
-                }
-            }
+        // the disc test dx² + dy² ≤ reach²; the weights differ from e^{−d²/R²} in the last bits
+        // (the product of two rounded exponentials, each within 5e-16). (The query per cell with
+        // glibc's exp was ~8 % of a 10k-agent social-forces run, issue 20.) With several threads,
+        // each owns a band of rows and walks the agents within reach of it, in agent order: the
+        // sums of a cell are the same bits for any thread count.
+        ScatterGrid g;
+        g.x0 = f.ix.front();
+        g.y0 = f.iy.front();
+        g.nx = nx;
+        g.ny = f.iy.back() - g.y0 + 1;
+        g.stride = static_cast<std::size_t>(nx) + simd::kLanes;
+        g.cellSize = cellSize;
+        g.invCell = 1.0 / cellSize;
+        g.reach = reach;
+        g.reach2 = reach * reach;
+        g.negInvR2 = -invR2;
+        const std::size_t sumCells = static_cast<std::size_t>(g.ny) * g.stride;
+        std::vector<double> sw(sumCells, 0.0), swx(sumCells, 0.0), swy(sumCells, 0.0);
+        // Two bands or more only for a crowd that shares its loops (core/parallel.h) and rows
+        // enough that a band is more than its agents' reach (each band walks every agent).
+        const int threads = parallelNeighbourLoop(n) ? std::max(1, std::min(omp_get_max_threads(), g.ny / 8)) : 1;
+#pragma omp parallel num_threads(threads) if (threads > 1)
+        {
+            const int t = omp_get_thread_num(), bands = omp_get_num_threads();
+            const int lo = g.y0 + static_cast<int>(static_cast<long>(g.ny) * t / bands);
+            const int hi = g.y0 + static_cast<int>(static_cast<long>(g.ny) * (t + 1) / bands) - 1;
+            scatterRows(agents.pos.data(), agents.vel.data(), n, g, lo, hi, sw.data(), swx.data(), swy.data());
         }
-        for (std::size_t c = 0; c < cells; ++c) {
-            if (!(sums[c].w > 0)) continue;
-            f.density[c] = norm * sums[c].w;
-            f.velocity[c] = Vec2(sums[c].wx, sums[c].wy) / sums[c].w;
-            f.weighted[c] = 1;
+        for (int y = 0; y < g.ny; ++y) {
+            const std::size_t from = static_cast<std::size_t>(y) * g.stride;
+            const std::size_t to = static_cast<std::size_t>(y) * static_cast<std::size_t>(nx);
+            for (int x = 0; x < nx; ++x) {
+                const double w = sw[from + static_cast<std::size_t>(x)];
+                if (!(w > 0)) continue;
+                const std::size_t c = to + static_cast<std::size_t>(x);
+                f.density[c] = norm * w;
+                f.velocity[c] = Vec2(swx[from + static_cast<std::size_t>(x)], swy[from + static_cast<std::size_t>(x)]) / w;
+                f.weighted[c] = 1;
+            }
         }
         return f;
     }
@@ -381,20 +490,56 @@ void SafetyRecorder::recordAt(const AgentStore& a, double t, const HealthLayer* 
     const double levels[3] = {t_.densityCaution, t_.densityDangerous, t_.densityCritical};
     bool held[kConditions] = {false, false, false, false, false};
     std::size_t people[kConditions] = {0, 0, 0, 0, 0};
-    if (f.size() > 0) {
-        // One growth of the flat grid for the whole field (it is sorted by (iy, ix)).
-        int x0 = f.ix[0], x1 = x0;
-        for (const int x : f.ix) x0 = std::min(x0, x), x1 = std::max(x1, x);
-        cover(x0, f.iy.front(), x1, f.iy.back());
+    // One growth of the flat grid for the whole field (it is sorted by (iy, ix)); while the cells
+    // are on it (`flat`), each entry's place in it comes from its row and column, without the
+    // look-up of cellAt, and the bounds of the cells evaluated grow once by the field's.
+    int x0 = 0, x1 = -1;
+    if (f.size() > 0) x0 = x1 = f.ix[0];
+    for (const int x : f.ix) x0 = std::min(x0, x), x1 = std::max(x1, x);
+    const bool flat = f.size() > 0 && cover(x0, f.iy.front(), x1, f.iy.back());
+    auto flatIndex = [&](std::size_t k) {
+        return static_cast<std::size_t>(f.iy[k] - gy0_) * static_cast<std::size_t>(gnx_) +
+               static_cast<std::size_t>(f.ix[k] - gx0_);
+    };
+    if (flat) {
+        if (bx1_ < bx0_) bx0_ = x0, bx1_ = x1, by0_ = f.iy.front(), by1_ = f.iy.back();
+        bx0_ = std::min(bx0_, x0), bx1_ = std::max(bx1_, x1);
+        by0_ = std::min(by0_, f.iy.front()), by1_ = std::max(by1_, f.iy.back());
     }
-    for (std::size_t k = 0; k < f.size(); ++k) {
-        Cell& cell = cellAt(f.ix[k], f.iy[k]);
+    // Contact: the largest contact acceleration of the agents in each entry's cell (max is exact
+    // in any order), folded into the cells in the loop below, which walks the grid in order (the
+    // agents' order would visit the 160-byte cells at random). Crush: each agent's last force
+    // against its own threshold.
+    std::vector<double> contact(health != nullptr ? f.size() : 0, 0.0);
+    std::vector<std::pair<int, int>> crushCells;  // (iy, ix) of the agents above their threshold
+    for (std::size_t i = 0; i < a.size() && health != nullptr; ++i) {
+        const HealthLayer& h = *health;
+        const std::size_t k = f.cellOfAgent[i];
+        contact[k] = std::max(contact[k], a.contactAccel[i].norm());
+        const HealthRecord& r = h.recordOf(a, i);
+        if (r.lastForce > h.params(r.policy).crushThreshold) {
+            crushCells.emplace_back(f.iy[k], f.ix[k]);
+            held[Crush] = true;
+            ++people[Crush];
+        }
+    }
+    // The cells: each entry writes only its own cell, and what they add up (whether a condition
+    // held, how many people, the largest pressure) is exact in any order, so with several threads
+    // (the cells on the flat grid, a field of thousands of cells) each takes a share of the
+    // entries and the results are the same bits.
+    struct Tally {
+        bool held[kConditions] = {false, false, false, false, false};
+        std::size_t people[kConditions] = {0, 0, 0, 0, 0};
+        double maxPressure = 0;
+    };
+    auto evaluate = [&](Cell& cell, std::size_t k, Tally& tally) {
         cell.maxDensity = std::max(cell.maxDensity, f.density[k]);
+        if (health != nullptr) cell.maxContact = std::max(cell.maxContact, contact[k]);
         // Fruin's levels: how long each has held here without a break (a cell missed by a record
         // — nobody within reach — starts again).
         {
             const bool continues = cell.losAt == previous && dt > 0;
-            const int level = fruinLevel(f.density[k]) - 'A';  // 0 = A … 5 = F
+            const int level = fruinIndex(f.density[k]);  // 0 = A … 5 = F
             for (int l = 1; l <= 5; ++l) {
                 double& run = cell.losRun[l - 1];
                 run = level >= l ? (continues ? run + dt : 0.0) : 0.0;
@@ -405,8 +550,8 @@ void SafetyRecorder::recordAt(const AgentStore& a, double t, const HealthLayer* 
         for (int l = 0; l < 3; ++l)
             if (f.density[k] > levels[l]) {
                 cell.seconds[l] += dt;
-                held[l] = true;
-                people[l] += static_cast<std::size_t>(f.people[k]);
+                tally.held[l] = true;
+                tally.people[l] += static_cast<std::size_t>(f.people[k]);
             }
         // Crowd pressure: the variance in time of the local velocity at this place, times
         // the local density (both averaged over the window). A cell with no agent within
@@ -421,7 +566,7 @@ void SafetyRecorder::recordAt(const AgentStore& a, double t, const HealthLayer* 
             cell.meanSquaredSpeed += w * (v.squaredNorm() - cell.meanSquaredSpeed);
             cell.sampledAt = t;
             pressure = cell.meanDensity * std::max(0.0, cell.meanSquaredSpeed - cell.meanVelocity.squaredNorm());
-            maxPressure_ = std::max(maxPressure_, pressure);
+            tally.maxPressure = std::max(tally.maxPressure, pressure);
         }
         // Crowd turbulence is a dense-crowd phenomenon (Helbing et al. 2007 observed it at
         // 7–9 persons/m²). Where people merely pass the same place in different directions at
@@ -430,23 +575,38 @@ void SafetyRecorder::recordAt(const AgentStore& a, double t, const HealthLayer* 
         // (docs/crowd-health.md shows a sparse crossing that needs this gate).
         if (pressure > t_.crowdPressureCritical && cell.meanDensity > t_.densityCaution) {
             cell.seconds[Pressure] += dt;
-            held[Pressure] = true;
-            people[Pressure] += static_cast<std::size_t>(f.people[k]);
+            tally.held[Pressure] = true;
+            tally.people[Pressure] += static_cast<std::size_t>(f.people[k]);
         }
-    }
-    // Contact per cell, and crush from each agent's last force against its own threshold.
-    std::vector<std::pair<int, int>> crushCells;  // (iy, ix) of the agents above their threshold
-    for (std::size_t i = 0; i < a.size() && health != nullptr; ++i) {
-        const HealthLayer& h = *health;
-        const int x = cellIndex(a.pos[i].x(), t_.cellSize), y = cellIndex(a.pos[i].y(), t_.cellSize);
-        Cell& cell = cellAt(x, y);
-        cell.maxContact = std::max(cell.maxContact, a.contactAccel[i].norm());
-        const HealthRecord& r = h.recordOf(a, i);
-        if (r.lastForce > h.params(r.policy).crushThreshold) {
-            crushCells.emplace_back(y, x);
-            held[Crush] = true;
-            ++people[Crush];
+    };
+    auto merge = [&](const Tally& tally) {
+        for (int c = 0; c < kConditions; ++c) {
+            held[c] = held[c] || tally.held[c];
+            people[c] += tally.people[c];
         }
+        maxPressure_ = std::max(maxPressure_, tally.maxPressure);
+    };
+    if (flat) {
+        const long count = static_cast<long>(f.size());
+#pragma omp parallel if (parallelCheapLoop(f.size()))
+        {
+            Tally tally;
+#pragma omp for schedule(static)
+            for (long kk = 0; kk < count; ++kk) {
+                const std::size_t k = static_cast<std::size_t>(kk);
+                const std::size_t g = flatIndex(k);
+                present_[g] = 1;
+                // The cells of a row follow each other; fetch those a few entries on.
+                if (kk + 4 < count) __builtin_prefetch(&grid_[flatIndex(k + 4)]);
+                evaluate(grid_[g], k, tally);
+            }
+#pragma omp critical(ch_safety_record_merge)
+            merge(tally);
+        }
+    } else {
+        Tally tally;
+        for (std::size_t k = 0; k < f.size(); ++k) evaluate(cellAt(f.ix[k], f.iy[k]), k, tally);
+        merge(tally);
     }
     std::sort(crushCells.begin(), crushCells.end());
     crushCells.erase(std::unique(crushCells.begin(), crushCells.end()), crushCells.end());

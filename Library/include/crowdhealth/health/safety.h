@@ -43,6 +43,8 @@ struct CrowdField {
     /// 1 where some agent lies within reach of the centre (the local velocity is defined), else 0.
     std::vector<unsigned char> weighted;
     std::vector<int> people;       ///< agents whose centre lies in the cell
+    /// The entry of each agent's cell (AgentStore index order): the cell its centre lies in.
+    std::vector<std::size_t> cellOfAgent;
     std::size_t size() const { return ix.size(); }
     /// The entry of cell (x, y), or size() when it was not evaluated.
     std::size_t find(int x, int y) const;
