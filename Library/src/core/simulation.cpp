@@ -360,14 +360,15 @@ Vec2 Simulation::symmetryJitter(std::size_t i) const {
     // so the same bits with any thread count or agent order. Agents walking freely are left
     // exactly as they are, so a symmetric encounter that resolves by itself (a head-on pair that
     // both step aside) stays symmetric, as in UMANS, whose rounding is exact under negation.
+    // Most of a dense crowd is held up, so the draw is cheap: one mix for the step's key (the
+    // same for every agent: hoisted out of integrate's loop), one 64-bit draw per agent read as
+    // a point of the square kept when inside the disc (uniformInUnitDisc, crowdhealth/core/rng.h).
     const double eps = spec_.symmetryBreaking;
     if (!(eps > 0) || agents_.prefVel[i].squaredNorm() == 0) return Vec2(0, 0);
     const double slow = kHeldUpFraction * agents_.prefSpeed[i];
     if (agents_.vel[i].squaredNorm() >= slow * slow) return Vec2(0, 0);
-    Rng rng(spec_.seed, static_cast<std::uint64_t>(agents_.id[i]), fineSteps_, kStreamSymmetry);
-    const double angle = rng.uniform(0, 2 * kPi);
-    const double r = eps * std::sqrt(rng.uniform());
-    return Vec2(r * std::cos(angle), r * std::sin(angle));
+    const std::uint64_t key = drawKey(spec_.seed, kStreamSymmetry, fineSteps_);
+    return eps * uniformInUnitDisc(key, static_cast<std::uint64_t>(agents_.id[i]));
 }
 
 void Simulation::evaluateAgents(bool coarseBoundary) {

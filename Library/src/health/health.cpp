@@ -184,6 +184,7 @@ void HealthLayer::init(const ScenarioSpec& spec) {
     falls_.clear();
     fallenNow_ = 0;
     anyCasualty_ = false;
+    anyInjured_ = false;
     anyCare_ = false;
     for (const HealthParams& hp : params_) anyCare_ = anyCare_ || hp.falls || hp.helping;
 }
@@ -202,23 +203,29 @@ void HealthLayer::activated(const AgentStore& agents, std::size_t i) { record(ag
 
 void HealthLayer::follow(AgentStore& agents) {
     const std::size_t total = records_.size(), n = agents.size();
-    std::vector<int> newOf(total, -1);  // old record index → new
-    std::vector<HealthRecord> moved;
-    moved.reserve(total);
+    // newOf: old record index → new; the agents' records first, in agent order, the others after
+    // them in their order.
+    std::vector<int>& newOf = newOf_;
+    newOf.assign(total, -1);
+    int next = 0;
     for (std::size_t i = 0; i < n; ++i) {
         const int old = agents.record[i];
         if (old < 0 || newOf[static_cast<std::size_t>(old)] >= 0) return;  // not one record per agent: leave as is
-        newOf[static_cast<std::size_t>(old)] = static_cast<int>(moved.size());
-        moved.push_back(records_[static_cast<std::size_t>(old)]);
+        newOf[static_cast<std::size_t>(old)] = next++;
     }
     for (std::size_t k = 0; k < total; ++k)
-        if (newOf[k] < 0) {
-            newOf[k] = static_cast<int>(moved.size());
-            moved.push_back(records_[k]);
-        }
-    records_.swap(moved);
-    for (std::size_t i = 0; i < n; ++i) agents.record[i] = static_cast<int>(i);
+        if (newOf[k] < 0) newOf[k] = next++;
     for (int& r : recordOfSpec_) r = newOf[static_cast<std::size_t>(r)];
+    // Moved in place, one cycle of the permutation at a time (each swap puts one record where it
+    // belongs): no second copy of the records (≈ 256 bytes per agent), whose fresh pages the
+    // kernel would have to fault in at every re-ordering.
+    for (std::size_t k = 0; k < total; ++k)
+        while (newOf[k] != static_cast<int>(k)) {
+            const std::size_t to = static_cast<std::size_t>(newOf[k]);
+            std::swap(records_[k], records_[to]);
+            std::swap(newOf[k], newOf[to]);
+        }
+    for (std::size_t i = 0; i < n; ++i) agents.record[i] = static_cast<int>(i);
 }
 
 const HealthRecord& HealthLayer::recordOf(const AgentStore& agents, std::size_t i) const {
@@ -227,8 +234,30 @@ const HealthRecord& HealthLayer::recordOf(const AgentStore& agents, std::size_t 
 
 void HealthLayer::beginStep(AgentStore& agents, const PointGrid& grid, double time, double dt) {
     const std::size_t n = agents.size();
-    nextPanic_.resize(n);
     const std::ptrdiff_t count = static_cast<std::ptrdiff_t>(n);
+    // The quiet step (the usual one): nobody panics (maxPanic_, the largest level of the last
+    // step, is 0, and agents that joined since start at 0), no policy has a panic floor, no panic
+    // event is due, and no injury slows anyone down. Every level then stays exactly +0 and the
+    // peaks do not change, so the records need not be read: only the speeds in effect are set,
+    // with the same arithmetic as below at panic 0 (the same bits).
+    bool quiet = maxPanic_ == 0;
+    for (const HealthParams& hp : params_) quiet = quiet && !(hp.panic > 0) && !(anyInjured_ && hp.injuryEffect);
+    for (std::size_t e = 0; e < events_.size() && quiet; ++e)
+        quiet = eventFired_[e] || events_[e].time > time + 0.5 * dt;
+    if (quiet) {
+#pragma omp parallel for schedule(static) if (parallelCheapLoop(static_cast<std::size_t>(count)))
+        for (std::ptrdiff_t ii = 0; ii < count; ++ii) {
+            const std::size_t i = static_cast<std::size_t>(ii);
+            const HealthParams& hp = params_[static_cast<std::size_t>(agents.policy[i])];
+            double v = agents.basePrefSpeed[i];
+            if (hp.panicSpeedEffect && hp.panicSpeed > v) v += 0.0 * (hp.panicSpeed - v);
+            agents.prefSpeed[i] = v;
+            agents.maxSpeed[i] = agents.baseMaxSpeed[i];
+        }
+        maxPanic_ = 0;
+        return;
+    }
+    nextPanic_.resize(n);
     // Contagion can only raise an agent towards a more panicked neighbour: while nobody panics
     // (the usual case) the neighbour search per agent is skipped. maxPanic_ is the largest level
     // of the previous step; agents that left since can only make it too high, which costs a
@@ -288,7 +317,8 @@ void HealthLayer::steerPreferred(AgentStore& agents, const PointGrid& grid, doub
     const std::ptrdiff_t count = static_cast<std::ptrdiff_t>(agents.size());
     bool any = false;
     for (const HealthParams& hp : params_) any = any || hp.erratic || hp.herding;
-    if (!any) return;
+    // Nobody panics (the largest level of this step's beginStep is 0): nothing turns.
+    if (!any || !(maxPanic_ > 0)) return;
 #pragma omp parallel for schedule(static) if (parallelCheapLoop(static_cast<std::size_t>(count)))
     for (std::ptrdiff_t ii = 0; ii < count; ++ii) {
         const std::size_t i = static_cast<std::size_t>(ii);
@@ -380,9 +410,11 @@ void HealthLayer::endStep(AgentStore& agents, double time, double dt) {
         }
     }
     // The crowd-level crush summary in agent order (sums in a fixed order: thread-count independent).
+    // Injuries happen only above the threshold: anyInjured_ is kept here.
     bool anyAbove = false;
     for (std::size_t i = 0; i < n; ++i) {
         if (!above_[i]) continue;
+        if (!anyInjured_ && record(agents, i).injured()) anyInjured_ = true;
         const Vec2& x = agents.pos[i];
         if (crush_.samples == 0) {
             crush_.xmin = crush_.xmax = x.x();

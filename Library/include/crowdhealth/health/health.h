@@ -80,41 +80,47 @@ struct HealthParams {
     double get(const std::string& name) const;
 };
 
-/// One pedestrian's health record (one row of health.csv).
-struct HealthRecord {
+/// One pedestrian's health record (one row of health.csv). The fields that every fine step reads
+/// or writes come first, in the record's first two cache lines (records are 64-byte aligned):
+/// beginStep reads only the first line, endStep the first two (the layer's per-step loops are
+/// memory-bound at 100k agents).
+struct alignas(64) HealthRecord {
     static constexpr double kNever = std::numeric_limits<double>::quiet_NaN();
-    AgentId id = -1;
-    std::size_t policy = 0;          ///< the agent's policy index (whose layer parameters apply)
-    bool seen = false;               ///< the agent was in the world at some point
+    // first cache line: crush and panic, every step
     double peakContactAccel = 0;     ///< m/s²
     double peakForce = 0;            ///< N
+    double lastForce = 0;            ///< N, last fine step
     double timeAboveThreshold = 0;   ///< s
     double dose = 0;                 ///< N·s
     double injuredAt = kNever;       ///< s
     double panic = 0;                ///< current level 0..1
     double peakPanic = 0;
-    double exitTime = kNever;        ///< s, removed at its goal
+    // second cache line: heading, and the flags endStep tests every step
+    Vec2 lastHeading{0, 0};          ///< unit velocity direction of the last step (0: none)
     double headingChange = 0;        ///< rad, Σ|Δθ| while moving
     double movingTime = 0;           ///< s over which headingChange was summed
+    AgentId helping = -1;            ///< the person it helps now (-1: nobody)
+    int falls = 0;                   ///< times fallen
+    bool fallen = false;             ///< on the floor now
+    bool seen = false;               ///< the agent was in the world at some point
+    // the rest: identity, and what changes only at events
+    AgentId id = -1;
+    std::size_t policy = 0;          ///< the agent's policy index (whose layer parameters apply)
+    double exitTime = kNever;        ///< s, removed at its goal
     // falls
     double fellAt = kNever;          ///< s, the first fall
     double lastFellAt = kNever;      ///< s, the latest fall
     double gotUpAt = kNever;         ///< s, the latest getting up
     double getUpAt = kNever;         ///< s, when the agent on the floor gets up (while fallen)
-    int falls = 0;                   ///< times fallen
-    bool fallen = false;             ///< on the floor now
     double standingRadius = 0;       ///< m, its radius before it fell
     Vec2 fallPosition{0, 0};         ///< m, where it (first) fell
     // helping (altruism)
-    AgentId helping = -1;            ///< the person it helps now (-1: nobody)
     int helpPhase = 0;               ///< 0 none, 1 going to, 2 beside (stopped), 3 escorting
     double besideSince = kNever;     ///< s, arrived beside the fallen person it helps
     AgentId firstHelped = -1;        ///< the first person it helped
     double helpTime = 0;             ///< s spent helping (approaching, beside, escorting)
     double helpDose = 0;             ///< N·s of crush dose received while helping
     int helpers = 0;                 ///< people who came to help this one
-    double lastForce = 0;            ///< N, last fine step
-    Vec2 lastHeading{0, 0};          ///< unit velocity direction of the last step (0: none)
 
     bool injured() const { return injuredAt == injuredAt; }
     bool everFell() const { return falls > 0; }
@@ -213,8 +219,10 @@ private:
     std::vector<FallEvent> falls_;
     int fallenNow_ = 0;                      ///< agents on the floor now
     bool anyCasualty_ = false;               ///< someone is injured or fallen (care() has work)
+    bool anyInjured_ = false;                ///< some record has ever been injured (beginStep's quiet path)
     bool anyCare_ = false;                   ///< some policy has falls or helping
     std::vector<unsigned char> fellNow_;     ///< per AgentStore index: fell in this endStep
+    std::vector<int> newOf_;                 ///< follow()'s scratch: old record index → new
 };
 
 /// health.csv: header `id,peak_contact_accel,peak_force,time_above_threshold,dose,injured_at,
