@@ -16,7 +16,9 @@
 #include "crowdhealth/core/rng.h"
 #include "crowdhealth/io/xml.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <functional>
 #include <optional>
@@ -524,15 +526,29 @@ BOOST_AUTO_TEST_CASE(paris_umans_variant_conflict_at_the_crossing_point) {
 }
 
 BOOST_AUTO_TEST_CASE(paris_umans_variant_circle_matches_umans) {
-    // UMANS' Circle25-Paris: mean arrival 39.7 s in UMANS; the default variant gives 38.6 s, the
-    // exact one 13.5 s (−66 %).
+    // UMANS' Circle25-Paris: mean arrival 39.7 s in UMANS (one run, single precision); the exact
+    // variant gives about 13.5 s (−66 %). The ring is symmetric and breaks at a random moment (the
+    // symmetry jitter), so one seed's mean arrival ranges from 37 to 66 s: the median over eight
+    // seeds is compared (43.8 s; 49.6 s with the jitter drawn as before 2026-12-02), over four
+    // under the sanitizers (CROWDHEALTH_SHORT: 47.2 s).
     Diagnostics diags;
     std::optional<ScenarioSpec> spec =
         loadScenario((std::filesystem::path(CH_SHARED_DIR) / "umans-examples" / "Circle25-Paris.xml").string(), diags);
     BOOST_TEST_REQUIRE(spec.has_value());
-    const test::RunResult r = test::run(*spec);
-    BOOST_TEST_REQUIRE(r.arrival.size() == 25u);
-    double mean = 0;
-    for (const auto& [id, t] : r.arrival) mean += t / 25.0;
-    BOOST_TEST(std::abs(mean - 39.7) <= 0.35 * 39.7, "mean arrival " << mean << " s");
+    const std::uint64_t seeds = std::getenv("CROWDHEALTH_SHORT") ? 4 : 8;
+    std::vector<double> means;
+    for (std::uint64_t seed = 0; seed < seeds; ++seed) {
+        ScenarioSpec s = *spec;
+        s.seed = seed;
+        const test::RunResult r = test::run(s);
+        BOOST_TEST_REQUIRE(r.arrival.size() == 25u, "seed " << seed);
+        double mean = 0;
+        for (const auto& [id, t] : r.arrival) mean += t / 25.0;
+        means.push_back(mean);
+    }
+    std::sort(means.begin(), means.end());
+    const std::size_t h = means.size() / 2;
+    const double median = 0.5 * (means[h - 1] + means[h]);
+    BOOST_TEST(std::abs(median - 39.7) <= 0.35 * 39.7,
+               "median over " << seeds << " seeds of the mean arrival " << median << " s");
 }
