@@ -232,6 +232,25 @@ const HealthRecord& HealthLayer::recordOf(const AgentStore& agents, std::size_t 
     return records_[static_cast<std::size_t>(agents.record[i])];
 }
 
+namespace {
+
+/// The speeds in effect of agent i at this panic level: panic raises the preferred speed towards
+/// panicSpeed, an injury lowers both (beginStep's quiet path calls it at panic 0, uninjured, and
+/// so gets the same bits as the full path would).
+void setSpeedsInEffect(AgentStore& agents, std::size_t i, const HealthParams& hp, double panic, bool injured) {
+    double v = agents.basePrefSpeed[i];
+    double vmax = agents.baseMaxSpeed[i];
+    if (hp.panicSpeedEffect && hp.panicSpeed > v) v += panic * (hp.panicSpeed - v);
+    if (hp.injuryEffect && injured) {
+        v *= hp.injuredSpeedFactor;
+        vmax *= hp.injuredMaxSpeedFactor;
+    }
+    agents.prefSpeed[i] = v;
+    agents.maxSpeed[i] = vmax;
+}
+
+}  // namespace
+
 void HealthLayer::beginStep(AgentStore& agents, const PointGrid& grid, double time, double dt) {
     const std::size_t n = agents.size();
     const std::ptrdiff_t count = static_cast<std::ptrdiff_t>(n);
@@ -239,7 +258,7 @@ void HealthLayer::beginStep(AgentStore& agents, const PointGrid& grid, double ti
     // step, is 0, and agents that joined since start at 0), no policy has a panic floor, no panic
     // event is due, and no injury slows anyone down. Every level then stays exactly +0 and the
     // peaks do not change, so the records need not be read: only the speeds in effect are set,
-    // with the same arithmetic as below at panic 0 (the same bits).
+    // by the same function as below at panic 0 (the same bits).
     bool quiet = maxPanic_ == 0;
     for (const HealthParams& hp : params_) quiet = quiet && !(hp.panic > 0) && !(anyInjured_ && hp.injuryEffect);
     for (std::size_t e = 0; e < events_.size() && quiet; ++e)
@@ -248,11 +267,7 @@ void HealthLayer::beginStep(AgentStore& agents, const PointGrid& grid, double ti
 #pragma omp parallel for schedule(static) if (parallelCheapLoop(static_cast<std::size_t>(count)))
         for (std::ptrdiff_t ii = 0; ii < count; ++ii) {
             const std::size_t i = static_cast<std::size_t>(ii);
-            const HealthParams& hp = params_[static_cast<std::size_t>(agents.policy[i])];
-            double v = agents.basePrefSpeed[i];
-            if (hp.panicSpeedEffect && hp.panicSpeed > v) v += 0.0 * (hp.panicSpeed - v);
-            agents.prefSpeed[i] = v;
-            agents.maxSpeed[i] = agents.baseMaxSpeed[i];
+            setSpeedsInEffect(agents, i, params_[static_cast<std::size_t>(agents.policy[i])], 0.0, false);
         }
         maxPanic_ = 0;
         return;
@@ -299,16 +314,7 @@ void HealthLayer::beginStep(AgentStore& agents, const PointGrid& grid, double ti
         r.panic = nextPanic_[i];
         newMax = std::max(newMax, r.panic);
         r.peakPanic = std::max(r.peakPanic, r.panic);
-        const HealthParams& hp = params_[static_cast<std::size_t>(agents.policy[i])];
-        double v = agents.basePrefSpeed[i];
-        double vmax = agents.baseMaxSpeed[i];
-        if (hp.panicSpeedEffect && hp.panicSpeed > v) v += r.panic * (hp.panicSpeed - v);
-        if (hp.injuryEffect && r.injured()) {
-            v *= hp.injuredSpeedFactor;
-            vmax *= hp.injuredMaxSpeedFactor;
-        }
-        agents.prefSpeed[i] = v;
-        agents.maxSpeed[i] = vmax;
+        setSpeedsInEffect(agents, i, params_[static_cast<std::size_t>(agents.policy[i])], r.panic, r.injured());
     }
     maxPanic_ = newMax;
 }
