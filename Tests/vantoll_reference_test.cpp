@@ -15,8 +15,9 @@
 // over 15 %") states the flow and why. The other SF-led rows are in that table, not here.
 //
 // Short variant (CROWDHEALTH_SHORT set, as scripts/test.sh --sanitize does, where every run is
-// about three times slower): seed 1 only, to t = 30 s; the density at 15 s is checked as above
-// and people must be leaving (at least 20 out); the flow and the 350 evacuees are not checked.
+// 10-20 times slower): seed 1 only, to t = 18 s; the density at 15 s is checked as above and
+// people must be leaving (at least 15 out; seed 1 has 25, 41 and 24 out by then for RVO+SPH,
+// SF K_ag 50 and SF K_ag 1000); the flow and the 350 evacuees are not checked.
 #define BOOST_TEST_MODULE vantoll_reference
 #include <boost/test/unit_test.hpp>
 
@@ -68,11 +69,13 @@ Measured runOnce(const std::string& file, std::uint64_t seed, double endTime) {
 }
 
 bool shortVariant() { return std::getenv("CROWDHEALTH_SHORT") != nullptr; }
+/// People out by the short variant's end (t = 18 s): the door is not jammed.
+constexpr std::size_t kShortLeaving = 15;
 
 Measured meanOverSeeds(const std::string& name, double endTime) {
     const std::string file = std::string(CH_SOURCE_DIR) + "/Examples/doorway/vantoll/" + name;
     const int seeds = shortVariant() ? 1 : 3;
-    if (shortVariant()) endTime = 30;
+    if (shortVariant()) endTime = 18;  // just past the density measured at 15 s
     std::vector<std::future<Measured>> runs;
     for (int s = 1; s <= seeds; ++s)
         runs.push_back(std::async(std::launch::async, runOnce, file, static_cast<std::uint64_t>(s), endTime));
@@ -96,8 +99,8 @@ BOOST_AUTO_TEST_CASE(vantoll_rvo_sph_rho0max_3) {
     BOOST_TEST_MESSAGE("RVO+SPH rho0_max 3 mean: density@15s " << m.density15 << " (paper 2.61), flow " << m.flow
                                                               << " (paper 1.43)");
     BOOST_TEST(std::abs(m.density15 - 2.61) <= 0.15 * 2.61);
-    if (shortVariant()) {  // seed 1 to 30 s: people are leaving
-        BOOST_TEST(m.evacuated >= 20u);
+    if (shortVariant()) {  // seed 1 to 18 s: people are leaving
+        BOOST_TEST(m.evacuated >= kShortLeaving);
         return;
     }
     BOOST_TEST(m.evacuated >= 350u);  // every seed
@@ -109,8 +112,8 @@ BOOST_AUTO_TEST_CASE(vantoll_sf_k50) {
     BOOST_TEST_MESSAGE("SF K_ag 50 mean: density@15s " << m.density15 << " (paper 4.39), flow " << m.flow
                                                        << " (paper 2.70), fewest evacuated " << m.evacuated);
     BOOST_TEST(std::abs(m.density15 - 4.39) <= 0.15 * 4.39);
-    if (shortVariant()) {  // seed 1 to 30 s: people are leaving
-        BOOST_TEST(m.evacuated >= 20u);
+    if (shortVariant()) {  // seed 1 to 18 s: people are leaving
+        BOOST_TEST(m.evacuated >= kShortLeaving);
         return;
     }
     BOOST_TEST(m.evacuated >= 350u);  // every seed
@@ -125,5 +128,6 @@ BOOST_AUTO_TEST_CASE(vantoll_sf_k1000) {
                                                          << " (paper 1.29, not asserted), fewest evacuated "
                                                          << m.evacuated);
     BOOST_TEST(std::abs(m.density15 - 4.21) <= 0.15 * 4.21);
-    BOOST_TEST(m.evacuated >= 20u);  // every seed: the door lets people through before any arch forms
+    // Every seed: the door lets people through before any arch forms.
+    BOOST_TEST(m.evacuated >= (shortVariant() ? kShortLeaving : 20u));
 }

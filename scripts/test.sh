@@ -41,7 +41,8 @@ cd build-asan
 export ASAN_OPTIONS="detect_leaks=1:abort_on_error=1:strict_string_checks=1:detect_stack_use_after_return=1${ASAN_OPTIONS:+:$ASAN_OPTIONS}"
 export UBSAN_OPTIONS="halt_on_error=1:abort_on_error=1:print_stacktrace=1${UBSAN_OPTIONS:+:$UBSAN_OPTIONS}"
 export LSAN_OPTIONS="suppressions=$(cd .. && pwd)/Tests/sanitizer/lsan.supp${LSAN_OPTIONS:+:$LSAN_OPTIONS}"
-# vantoll_reference_test (label reference, about 5 minutes in Release) runs its short variant
-# here: seed 1 to t = 30 s, density at 15 s and people leaving (docs/development.md).
+# The longest suites run their short variants here (vantoll_reference_test and
+# sph_reference_test: seed 1 to t = 18 s, density at 15 s and people leaving; fewer steps, seeds
+# or tests in examples_run_test, cli_verify_test, policies_vision_test): docs/development.md.
 export CROWDHEALTH_SHORT=1
 ctest --output-on-failure -j "${JOBS:-$(nproc)}" "$@"
