@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <utility>
 #include <vector>
 
@@ -123,4 +124,156 @@ BOOST_AUTO_TEST_CASE(torus_cells_of_half_the_radius_give_the_same_lists) {
         for (const auto& [j, d] : half[i])
             across += (c.pos[static_cast<std::size_t>(j)] - c.pos[i]).norm() > 1.0 ? 1 : 0;
     BOOST_TEST(across > 0);
+}
+
+namespace {
+
+/// A crowd that probes the edges of the gather paths (issue 20): random points, duplicates, points
+/// at exactly r (and at r along other directions) from others, points on cell borders and, if
+/// `farFlung`, agents kilometres away (the grid's cells then grow past the requested size).
+Crowd edgyCrowd(int n, double w, double h, double r, double cell, bool farFlung, std::uint64_t seed) {
+    Crowd c = crowd(n, w, h, seed);
+    Rng rng(seed + 1);
+    // The lowest, leftmost point: the plane grid's origin, so that k·cell from it is a cell border.
+    const Vec2 corner(-0.5 * w - 1, -0.5 * h - 1);
+    c.pos.push_back(corner);
+    for (int k = 0; k < 40; ++k) {
+        const double bx = corner.x() + cell * std::floor(rng.uniform(0, std::floor(w / cell)));
+        const double by = corner.y() + cell * std::floor(rng.uniform(0, std::floor(h / cell)));
+        c.pos.emplace_back(bx, corner.y() + rng.uniform(0, h));
+        c.pos.emplace_back(corner.x() + rng.uniform(0, w), by);
+        c.pos.emplace_back(bx, by);
+        c.pos.emplace_back(bx + r, by);  // exactly r away along x (if the sum is exact)
+    }
+    for (int k = 0; k < 30; ++k) {
+        const Vec2 p = c.pos[static_cast<std::size_t>(k)];
+        c.pos.push_back(p);  // a duplicate
+        c.pos.emplace_back(p.x() + r, p.y());
+        c.pos.emplace_back(p.x(), p.y() - r);
+        c.pos.emplace_back(p.x() - 0.6 * r, p.y() + 0.8 * r);
+        const double a = rng.uniform(0, 6.283185307179586);
+        c.pos.emplace_back(p.x() + r * std::cos(a), p.y() + r * std::sin(a));  // near the chord's end
+        c.pos.emplace_back(p.x() + 0.6 * r * std::cos(a), p.y() + 0.6 * r * std::sin(a));
+    }
+    if (farFlung) {
+        c.pos.emplace_back(5e4, 3e4);
+        c.pos.emplace_back(5e4 + r, 3e4);
+        c.pos.emplace_back(-2e4, 1e2);
+    }
+    c.group.resize(c.pos.size());
+    for (std::size_t i = 0; i < c.pos.size(); ++i) c.group[i] = i % 3 == 0 ? 1 : 0;
+    return c;
+}
+
+/// Agent i's list as (index, offset) in list order.
+std::vector<std::vector<std::pair<int, Vec2>>> listsOf(const NeighbourLists& lists) {
+    std::vector<std::vector<std::pair<int, Vec2>>> out(lists.size());
+    for (std::size_t i = 0; i < lists.size(); ++i)
+        for (const NeighbourAgent& nb : lists.agents(i)) out[i].emplace_back(nb.index, Vec2(nb.offset));
+    return out;
+}
+
+}  // namespace
+
+BOOST_AUTO_TEST_CASE(every_gather_path_gives_the_same_lists) {
+    const int original = NeighbourLists::gatherPath();
+    const World world(WorldSpec{}, {});
+    int pathsRun = 0;
+    for (const double r : {1.0, 5.0}) {
+        for (const bool farFlung : {false, true}) {
+            // The grid the lists use: the step grid (cells r/2) for 1 m, their own (r/4) for 5 m.
+            const double cell = r >= NeighbourLists::kFineGridFrom ? r / NeighbourLists::kFineGridCells : 0.5 * r;
+            const Crowd c = edgyCrowd(r < 2 ? 1500 : 800, 24, 16, r, cell, farFlung, farFlung ? 77 : 78);
+            const std::vector<double> range = {r, 0.6 * r};
+            // Path 0 (generic) against brute force, the others against path 0 entry by entry.
+            BOOST_TEST_REQUIRE(NeighbourLists::setGatherPath(0));
+            std::vector<std::vector<std::pair<int, Vec2>>> reference;
+            PointGrid grid;
+            grid.build(c.pos, 0.5 * r);
+            {
+                NeighbourLists lists;
+                lists.build(c.pos, grid, world, c.group, range);
+                reference = listsOf(lists);
+            }
+            std::size_t atExactlyR = 0;
+            for (std::size_t i = 0; i < c.pos.size(); ++i) {
+                const double ri = range[static_cast<std::size_t>(c.group[i])];
+                std::vector<int> expected, got;
+                for (std::size_t j = 0; j < c.pos.size(); ++j) {
+                    const double d2 = (c.pos[j] - c.pos[i]).squaredNorm();
+                    if (j != i && d2 <= ri * ri) expected.push_back(static_cast<int>(j));
+                    atExactlyR += j != i && d2 == ri * ri ? 1 : 0;
+                }
+                for (const auto& e : reference[i]) got.push_back(e.first);
+                std::sort(got.begin(), got.end());
+                BOOST_TEST(got == expected, "agent " << i << " r " << r);
+            }
+            BOOST_TEST(atExactlyR > 0);  // the crowd does probe the boundary
+            for (int path = 1; path <= 2; ++path) {
+                if (!NeighbourLists::setGatherPath(path)) {
+                    BOOST_TEST_MESSAGE("gather path " << path << " not run: this CPU lacks it");
+                    continue;
+                }
+                ++pathsRun;
+                NeighbourLists lists;
+                lists.build(c.pos, grid, world, c.group, range);
+                const auto mine = listsOf(lists);
+                BOOST_TEST_REQUIRE(mine.size() == reference.size());
+                for (std::size_t i = 0; i < mine.size(); ++i) {
+                    BOOST_TEST_REQUIRE(mine[i].size() == reference[i].size(), "path " << path << " agent " << i);
+                    for (std::size_t k = 0; k < mine[i].size(); ++k) {
+                        BOOST_TEST(mine[i][k].first == reference[i][k].first);
+                        BOOST_TEST(std::memcmp(mine[i][k].second.data(), reference[i][k].second.data(),
+                                               2 * sizeof(double)) == 0);
+                    }
+                }
+            }
+        }
+    }
+    BOOST_TEST_MESSAGE("gather paths compared: " << pathsRun << " (of 8)");
+    NeighbourLists::setGatherPath(original);
+}
+
+BOOST_AUTO_TEST_CASE(row_runs_follow_the_disc_chord) {
+    // Points at the centres of 1 m cells of a 11 × 11 grid from (0, 0).
+    std::vector<Vec2> pts;
+    for (int y = 0; y <= 10; ++y)
+        for (int x = 0; x <= 10; ++x) pts.emplace_back(x + 0.5, y + 0.5);
+    pts.emplace_back(0, 0);  // origin
+    PointGrid g;
+    g.build(pts, 1.0);
+    // Query disc of 2 m at (5.5, 5.5): its bounding box covers cells 3..7 along both axes; the
+    // four corner cells (nearest point 2.12 m away) cannot hold a neighbour and are not visited.
+    const Vec2 p(5.5, 5.5);
+    std::vector<int> seen;
+    g.forEachCandidate(p, 2.0, [&](int j, const Vec2&, double) { seen.push_back(j); });
+    BOOST_TEST(seen.size() == g.candidateCount(p, 2.0));
+    BOOST_TEST(seen.size() == 25u - 4u);
+    auto at = [](int x, int y) { return y * 11 + x; };
+    for (const int corner : {at(3, 3), at(7, 3), at(3, 7), at(7, 7)})
+        BOOST_TEST((std::find(seen.begin(), seen.end(), corner) == seen.end()));
+    // A point exactly on the disc in a row of cells the chord only just reaches is kept: the
+    // cell (7, 5) point at (7.5, 5.5) is at exactly 2 m; so is (5.5, 3.5) in row 3.
+    BOOST_TEST((std::find(seen.begin(), seen.end(), at(7, 5)) != seen.end()));
+    BOOST_TEST((std::find(seen.begin(), seen.end(), at(5, 3)) != seen.end()));
+    const std::vector<int> in = g.within(p, 2.0);
+    BOOST_TEST((std::find(in.begin(), in.end(), at(7, 5)) != in.end()));
+    // Many random queries: forEachCandidate visits candidateCount points, every point within r.
+    Rng rng(9);
+    for (int q = 0; q < 2000; ++q) {
+        const Vec2 qp(rng.uniform(-1, 12), rng.uniform(-1, 12));
+        const double r = rng.uniform(0.1, 4.0);
+        std::size_t visited = 0;
+        std::vector<int> found;
+        g.forEachCandidate(qp, r, [&](int j, const Vec2&, double d2) {
+            ++visited;
+            if (d2 <= r * r) found.push_back(j);
+        });
+        BOOST_TEST(visited == g.candidateCount(qp, r));
+        std::vector<int> expected;
+        for (std::size_t j = 0; j < pts.size(); ++j)
+            if ((pts[j] - qp).squaredNorm() <= r * r) expected.push_back(static_cast<int>(j));
+        std::sort(found.begin(), found.end());
+        BOOST_TEST(found == expected);
+    }
 }

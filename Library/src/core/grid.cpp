@@ -78,13 +78,15 @@ void PointGrid::build(const std::vector<Vec2>& points, double cellSize, bool per
     }
     for (int c = 0; c < ncells; ++c) cellStart_[c + 1] += cellStart_[c];
     sorted_.resize(n);
-    sortedPos_.resize(n);
+    sortedX_.resize(n);
+    sortedY_.resize(n);
     fill_.assign(cellStart_.begin(), cellStart_.end() - 1);
     // Counting sort, stable: within a cell, indices stay ascending.
     for (std::size_t i = 0; i < n; ++i) {
         const int k = fill_[cellOf_[i]]++;
         sorted_[k] = static_cast<int>(i);
-        sortedPos_[k] = points[i];
+        sortedX_[k] = points[i].x();
+        sortedY_[k] = points[i].y();
     }
 }
 
@@ -92,10 +94,12 @@ std::size_t PointGrid::candidateCount(const Vec2& p, double radius) const {
     if (points_ == nullptr || sorted_.empty()) return 0;
     std::size_t total = 0;
     if (!periodic_) {
-        const CellBox b = boxAround(p, radius);
-        if (b.x0 > b.x1) return 0;
-        for (int y = b.y0; y <= b.y1; ++y)
-            total += static_cast<std::size_t>(cellStart_[y * nx_ + b.x1 + 1] - cellStart_[y * nx_ + b.x0]);
+        const Rows rows = rowsAround(p, radius);
+        for (int y = rows.y0; y <= rows.y1; ++y) {
+            int k0, k1;
+            rowRun(p, radius, y, k0, k1);
+            total += static_cast<std::size_t>(k1 - k0);
+        }
         return total;
     }
     int cx, cy, sx, sy;

@@ -28,7 +28,8 @@ public:
     void forEachWithin(const Vec2& p, double radius, F&& f) const;
 
     /// Calls f(j, offset, distSq) for every point forEachWithin(p, radius, ·) examines — the
-    /// points of the cells the query disc touches, in the same order — whether or not it lies
+    /// points of the cells the query disc's chord touches in each row of cells (rowRun), in the
+    /// same order — whether or not it lies
     /// within `radius` (candidateCount(p, radius) calls). For callers that test the distance
     /// without a branch (a list append that always writes and advances by the test's outcome):
     /// in a crowd whose listing order within cells is irregular, the branch of forEachWithin is
@@ -47,6 +48,45 @@ public:
 
     /// Cell width (x) actually used (≥ the requested size; larger for far-flung points).
     double cellSize() const { return cw_; }
+    bool periodic() const { return periodic_; }
+
+    /// x and y of the points in order() (structure of arrays, for vectorised queries).
+    const std::vector<double>& sortedX() const { return sortedX_; }
+    const std::vector<double>& sortedY() const { return sortedY_; }
+
+    /// Plane only: the rows of cells [y0, y1] a query disc of `radius` around p may touch (y0 > y1
+    /// when it misses the grid). With rowRun, what forEachCandidate visits, for callers that scan
+    /// order()/sortedX()/sortedY() themselves.
+    struct Rows {
+        int y0, y1;
+    };
+    Rows rowsAround(const Vec2& p, double radius) const {
+        const CellBox b = boxAround(p, radius);
+        if (b.x0 > b.x1) return Rows{0, -1};
+        return Rows{b.y0, b.y1};
+    }
+    /// Plane only: the positions [k0, k1) in order() of the cells of row y (from rowsAround) that
+    /// the query disc's chord in that row's band touches (issue 20: the corner cells of the
+    /// bounding box hold no neighbour). Padded like boxAround, so that no point within `radius`
+    /// (by the distance the callers compute) is left out; k0 == k1 when none can be in range.
+    void rowRun(const Vec2& p, double radius, int y, int& k0, int& k1) const {
+        const double reach = radius + 1e-6;
+        // Distance from p.y to the row's band [lo, lo + ch], less the pad: a point binned to this
+        // row (by a division that may round) is at least that far from p along y.
+        const double lo = origin_.y() + y * ch_;
+        const double gap = std::max(lo - p.y(), p.y() - (lo + ch_)) - 1e-6;
+        const double dy = gap > 0 ? gap : 0.0;
+        const double w2 = reach * reach - dy * dy;
+        k0 = k1 = 0;
+        if (!(w2 >= 0)) return;
+        const double w = std::sqrt(w2) + 1e-6;
+        const double ix = 1.0 / cw_;
+        const int x0 = std::max(0, floorClamped((p.x() - w - origin_.x()) * ix, nx_));
+        const int x1 = std::min(nx_ - 1, floorClamped((p.x() + w - origin_.x()) * ix, nx_));
+        if (x0 > x1) return;
+        k0 = cellStart_[y * nx_ + x0];
+        k1 = cellStart_[y * nx_ + x1 + 1];
+    }
 
     /// to − from, the shortest such vector on a torus (the domain of the last build()).
     Vec2 offset(const Vec2& from, const Vec2& to) const {
@@ -67,7 +107,7 @@ private:
     int nx_ = 1, ny_ = 1;
     std::vector<int> cellStart_;  ///< size nx*ny+1, counting-sort offsets
     std::vector<int> sorted_;     ///< point indices, grouped by cell (row-major cells)
-    std::vector<Vec2> sortedPos_; ///< points[sorted_[k]]: queries read positions contiguously
+    std::vector<double> sortedX_, sortedY_;  ///< points[sorted_[k]]: queries read positions contiguously
     std::vector<int> cellOf_, fill_;  ///< build scratch, kept to avoid allocating every step
 
     int cellX(double x) const { return static_cast<int>(std::floor((x - origin_.x()) / cw_)); }
@@ -126,19 +166,19 @@ void PointGrid::forEachCandidate(const Vec2& query, double radius, F&& f) const 
     if (points_ == nullptr || sorted_.empty()) return;
     const Vec2 p = query;  // a local copy: f may store to memory the query point could alias
     if (!periodic_) {
-        // Only the cells touched by the query disc's bounding box (boxAround). Cells of one row
-        // are contiguous in sorted_, so each row is one run over sortedPos_. The visit order (rows,
-        // then cells, then ascending index) is the same as scanning whole cells, so sums over
-        // neighbours do not change.
+        // Only the cells touched by the query disc's bounding box (boxAround), and in each row
+        // only those its chord touches (rowRun). Cells of one row are contiguous in sorted_, so
+        // each row is one run over sortedX_/sortedY_. The visit order (rows, then cells, then
+        // ascending index) is the same as scanning whole cells, so sums over neighbours do not
+        // change.
         // (Multiplying by the inverse cell size may round differently from the division used to
         // bin the points, by far less than the pad.)
-        const CellBox b = boxAround(p, radius);
-        if (b.x0 > b.x1) return;
-        for (int y = b.y0; y <= b.y1; ++y) {
-            const int row = y * nx_;
-            const int end = cellStart_[row + b.x1 + 1];
-            for (int k = cellStart_[row + b.x0]; k < end; ++k) {
-                const Vec2 d = sortedPos_[k] - p;
+        const Rows rows = rowsAround(p, radius);
+        for (int y = rows.y0; y <= rows.y1; ++y) {
+            int k0, k1;
+            rowRun(p, radius, y, k0, k1);
+            for (int k = k0; k < k1; ++k) {
+                const Vec2 d = Vec2(sortedX_[k], sortedY_[k]) - p;
                 f(sorted_[k], d, d.squaredNorm());
             }
         }
@@ -154,7 +194,7 @@ void PointGrid::forEachCandidate(const Vec2& query, double radius, F&& f) const 
             const int y = ((cy + oy) % ny_ + ny_) % ny_;
             const int c = y * nx_ + x;
             for (int k = cellStart_[c]; k < cellStart_[c + 1]; ++k) {
-                Vec2 d = sortedPos_[k] - p;
+                Vec2 d = Vec2(sortedX_[k], sortedY_[k]) - p;
                 d.x() -= width_ * std::round(d.x() / width_);
                 d.y() -= height_ * std::round(d.y() / height_);
                 f(sorted_[k], d, d.squaredNorm());
