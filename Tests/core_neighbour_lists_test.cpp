@@ -234,46 +234,52 @@ BOOST_AUTO_TEST_CASE(every_gather_path_gives_the_same_lists) {
     NeighbourLists::setGatherPath(original);
 }
 
-BOOST_AUTO_TEST_CASE(row_runs_follow_the_disc_chord) {
-    // Points at the centres of 1 m cells of a 11 × 11 grid from (0, 0).
+BOOST_AUTO_TEST_CASE(row_runs_are_what_forEachCandidate_scans) {
+    // Points at the centres of 1 m cells of a 11 × 11 grid from (0, 0), and on cell borders.
     std::vector<Vec2> pts;
     for (int y = 0; y <= 10; ++y)
         for (int x = 0; x <= 10; ++x) pts.emplace_back(x + 0.5, y + 0.5);
     pts.emplace_back(0, 0);  // origin
+    for (int k = 1; k < 10; ++k) pts.emplace_back(k, 5.5), pts.emplace_back(5.5, k), pts.emplace_back(k, k);
     PointGrid g;
     g.build(pts, 1.0);
-    // Query disc of 2 m at (5.5, 5.5): its bounding box covers cells 3..7 along both axes; the
-    // four corner cells (nearest point 2.12 m away) cannot hold a neighbour and are not visited.
+    // Points at exactly 2 m from (5.5, 5.5) in the box's edge rows and columns are found.
     const Vec2 p(5.5, 5.5);
-    std::vector<int> seen;
-    g.forEachCandidate(p, 2.0, [&](int j, const Vec2&, double) { seen.push_back(j); });
-    BOOST_TEST(seen.size() == g.candidateCount(p, 2.0));
-    BOOST_TEST(seen.size() == 25u - 4u);
-    auto at = [](int x, int y) { return y * 11 + x; };
-    for (const int corner : {at(3, 3), at(7, 3), at(3, 7), at(7, 7)})
-        BOOST_TEST((std::find(seen.begin(), seen.end(), corner) == seen.end()));
-    // A point exactly on the disc in a row of cells the chord only just reaches is kept: the
-    // cell (7, 5) point at (7.5, 5.5) is at exactly 2 m; so is (5.5, 3.5) in row 3.
-    BOOST_TEST((std::find(seen.begin(), seen.end(), at(7, 5)) != seen.end()));
-    BOOST_TEST((std::find(seen.begin(), seen.end(), at(5, 3)) != seen.end()));
     const std::vector<int> in = g.within(p, 2.0);
-    BOOST_TEST((std::find(in.begin(), in.end(), at(7, 5)) != in.end()));
-    // Many random queries: forEachCandidate visits candidateCount points, every point within r.
+    for (const int j : {7 * 11 + 5, 3 * 11 + 5, 5 * 11 + 7, 5 * 11 + 3})  // (5.5, 7.5), (5.5, 3.5), ...
+        BOOST_TEST((std::find(in.begin(), in.end(), j) != in.end()));
     Rng rng(9);
-    for (int q = 0; q < 2000; ++q) {
-        const Vec2 qp(rng.uniform(-1, 12), rng.uniform(-1, 12));
-        const double r = rng.uniform(0.1, 4.0);
-        std::size_t visited = 0;
-        std::vector<int> found;
+    for (int q = 0; q < 3000; ++q) {
+        const Vec2 qp(rng.uniform(-3, 14), rng.uniform(-3, 14));
+        const double r = q % 5 == 0 ? 2.0 : rng.uniform(0.1, 4.0);
+        // The runs hold exactly what forEachCandidate visits, in its order.
+        std::vector<int> visited, found;
         g.forEachCandidate(qp, r, [&](int j, const Vec2&, double d2) {
-            ++visited;
+            visited.push_back(j);
             if (d2 <= r * r) found.push_back(j);
         });
-        BOOST_TEST(visited == g.candidateCount(qp, r));
+        PointGrid::Run runs[16];
+        int nRuns = -1;
+        std::size_t total = 0;
+        BOOST_TEST_REQUIRE(g.rowRuns(qp, r, runs, 16, nRuns, total));
+        std::vector<int> fromRuns;
+        for (int k = 0; k < nRuns; ++k) {
+            BOOST_TEST(runs[k].begin < runs[k].end);
+            for (int m = runs[k].begin; m < runs[k].end; ++m) fromRuns.push_back(g.order()[static_cast<std::size_t>(m)]);
+        }
+        BOOST_TEST(fromRuns == visited);
+        BOOST_TEST(total == visited.size());
+        BOOST_TEST(total == g.candidateCount(qp, r));
+        // Every point within r is visited.
         std::vector<int> expected;
         for (std::size_t j = 0; j < pts.size(); ++j)
             if ((pts[j] - qp).squaredNorm() <= r * r) expected.push_back(static_cast<int>(j));
         std::sort(found.begin(), found.end());
         BOOST_TEST(found == expected);
     }
+    // More rows than the caller has room for: false.
+    PointGrid::Run few[2];
+    int nRuns = 0;
+    std::size_t total = 0;
+    BOOST_TEST(!g.rowRuns(p, 2.0, few, 2, nRuns, total));
 }

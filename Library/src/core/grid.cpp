@@ -94,12 +94,10 @@ std::size_t PointGrid::candidateCount(const Vec2& p, double radius) const {
     if (points_ == nullptr || sorted_.empty()) return 0;
     std::size_t total = 0;
     if (!periodic_) {
-        const Rows rows = rowsAround(p, radius);
-        for (int y = rows.y0; y <= rows.y1; ++y) {
-            int k0, k1;
-            rowRun(p, radius, y, k0, k1);
-            total += static_cast<std::size_t>(k1 - k0);
-        }
+        const CellBox b = boxAround(p, radius);
+        if (b.x0 > b.x1) return 0;
+        for (int y = b.y0; y <= b.y1; ++y)
+            total += static_cast<std::size_t>(cellStart_[y * nx_ + b.x1 + 1] - cellStart_[y * nx_ + b.x0]);
         return total;
     }
     int cx, cy, sx, sy;

@@ -33,7 +33,7 @@ namespace {
 constexpr std::size_t kGatherSlack = 8;
 
 /// The generic gather: the scalar branch-free append (every candidate is written at `count`, which
-/// advances only for the others within r).
+/// advances only for the others within r), over any grid.
 std::size_t gatherGeneric(const PointGrid& grid, const Vec2& p, double r, int self, NeighbourAgent* list) {
     std::size_t count = 0;
     const double r2 = r * r;
@@ -44,21 +44,43 @@ std::size_t gatherGeneric(const PointGrid& grid, const Vec2& p, double r, int se
     return count;
 }
 
+/// Rows of cells a query may span before a gather falls back to forEachCandidate (a list
+/// radius of 64 cells; the lists' grids have cells of half or a quarter of it).
+constexpr int kMaxRuns = 64;
+using Run = PointGrid::Run;
+
+/// The same append over the runs of PointGrid::rowRuns (plane grids).
+std::size_t gatherRuns(const PointGrid& grid, const Run* runs, int nRuns, const Vec2& p, double r, int self,
+                       NeighbourAgent* list) {
+    const double* xs = grid.sortedX().data();
+    const double* ys = grid.sortedY().data();
+    const int* idx = grid.order().data();
+    const double r2 = r * r;
+    std::size_t count = 0;
+    for (int q = 0; q < nRuns; ++q)
+        for (int k = runs[q].begin; k < runs[q].end; ++k) {
+            const Vec2 d = Vec2(xs[k], ys[k]) - p;
+            const int j = idx[k];
+            list[count] = NeighbourAgent{d, j};
+            count += static_cast<std::size_t>((d.squaredNorm() <= r2) & (j != self));
+        }
+    return count;
+}
+
 #ifdef CH_NL_X86
 /// AVX2: per row run (PointGrid::rowRun), the offsets and the distance test four lanes at a time,
 /// then the branch-free append lane by lane; the run's last < 4 candidates as in gatherGeneric.
 CH_NL_AVX2 CH_NL_NO_CONTRACT
-std::size_t gatherAvx2(const PointGrid& grid, const Vec2& p, double r, int self, NeighbourAgent* list) {
+std::size_t gatherAvx2(const PointGrid& grid, const Run* runs, int nRuns, const Vec2& p, double r, int self,
+                       NeighbourAgent* list) {
     const double* xs = grid.sortedX().data();
     const double* ys = grid.sortedY().data();
     const int* idx = grid.order().data();
     const double r2 = r * r;
     const __m256d px = _mm256_set1_pd(p.x()), py = _mm256_set1_pd(p.y()), r2v = _mm256_set1_pd(r2);
     std::size_t count = 0;
-    const PointGrid::Rows rows = grid.rowsAround(p, r);
-    for (int y = rows.y0; y <= rows.y1; ++y) {
-        int k0, k1;
-        grid.rowRun(p, r, y, k0, k1);
+    for (int q = 0; q < nRuns; ++q) {
+        const int k0 = runs[q].begin, k1 = runs[q].end;
         int k = k0;
         for (; k + 4 <= k1; k += 4) {
             const __m256d dx = _mm256_sub_pd(_mm256_loadu_pd(xs + k), px);
@@ -112,7 +134,8 @@ constexpr Interleave kInterleave = makeInterleave();
 /// and `count` advances by their number. The stores may run up to kGatherSlack entries past the
 /// list's end; entries past `count` are overwritten by the next list or never read.
 CH_NL_AVX512 CH_NL_NO_CONTRACT
-std::size_t gatherWide(const PointGrid& grid, const Vec2& p, double r, int self, NeighbourAgent* list) {
+std::size_t gatherWide(const PointGrid& grid, const Run* runs, int nRuns, const Vec2& p, double r, int self,
+                       NeighbourAgent* list) {
     const double* xs = grid.sortedX().data();
     const double* ys = grid.sortedY().data();
     const int* idx = grid.order().data();
@@ -124,10 +147,8 @@ std::size_t gatherWide(const PointGrid& grid, const Vec2& p, double r, int self,
         fromIndex[v] = _mm512_loadu_si512(kInterleave.fromIndex.data() + 8 * v);
     }
     std::size_t count = 0;
-    const PointGrid::Rows rows = grid.rowsAround(p, r);
-    for (int y = rows.y0; y <= rows.y1; ++y) {
-        int k0, k1;
-        grid.rowRun(p, r, y, k0, k1);
+    for (int q = 0; q < nRuns; ++q) {
+        const int k0 = runs[q].begin, k1 = runs[q].end;
         for (int k = k0; k < k1; k += 8) {
             const int left = k1 - k;
             const __mmask8 live = left >= 8 ? __mmask8(0xff) : static_cast<__mmask8>((1u << left) - 1u);
@@ -168,17 +189,17 @@ bool cpuRuns(int path) {
 /// The gather path in use: the best this CPU runs, found once when the program starts.
 std::atomic<int> gGatherPath{cpuRuns(2) ? 2 : cpuRuns(1) ? 1 : 0};
 
-std::size_t gather(const PointGrid& grid, const Vec2& p, double r, int self, NeighbourAgent* list) {
+std::size_t gatherRunsOn(int path, const PointGrid& grid, const Run* runs, int nRuns, const Vec2& p, double r,
+                         int self, NeighbourAgent* list) {
 #ifdef CH_NL_X86
-    if (!grid.periodic()) {
-        switch (gGatherPath.load(std::memory_order_relaxed)) {
-        case 2: return gatherWide(grid, p, r, self, list);
-        case 1: return gatherAvx2(grid, p, r, self, list);
-        default: break;
-        }
+    switch (path) {
+    case 2: return gatherWide(grid, runs, nRuns, p, r, self, list);
+    case 1: return gatherAvx2(grid, runs, nRuns, p, r, self, list);
+    default: break;
     }
 #endif
-    return gatherGeneric(grid, p, r, self, list);
+    (void)path;
+    return gatherRuns(grid, runs, nRuns, p, r, self, list);
 }
 
 }  // namespace
@@ -224,6 +245,8 @@ void NeighbourLists::build(const std::vector<Vec2>& positions, const PointGrid& 
     segmentSlice_.resize(n);
     group_ = &group;
     rangeOfGroup_ = rangeOfGroup;
+    const bool periodic = grid.periodic();
+    const int path = gGatherPath.load(std::memory_order_relaxed);
 
 #pragma omp parallel num_threads(threads) if (parallelNeighbourLoop(n))
     {
@@ -239,9 +262,20 @@ void NeighbourLists::build(const std::vector<Vec2>& positions, const PointGrid& 
             const int self = static_cast<int>(i);
             const double r = rangeOfGroup[static_cast<std::size_t>(group[i])];
             Place at;
-            // Room for every candidate plus what a vector gather may write past its last entry.
-            NeighbourAgent* list = out.open(at, grid.candidateCount(positions[i], r) + kGatherSlack);
-            const std::size_t count = gather(grid, positions[i], r, self, list);
+            // The runs of order() to scan (plane grids, at most kMaxRuns rows), found once for both
+            // the room to ask for (every candidate plus what a vector gather may write past its
+            // last entry) and the gather; else (a torus, a huge radius) forEachCandidate.
+            Run runs[kMaxRuns];
+            int nRuns = 0;
+            std::size_t candidates = 0;
+            std::size_t count;
+            if (!periodic && grid.rowRuns(positions[i], r, runs, kMaxRuns, nRuns, candidates)) {
+                NeighbourAgent* list = out.open(at, candidates + kGatherSlack);
+                count = gatherRunsOn(path, grid, runs, nRuns, positions[i], r, self, list);
+            } else {
+                NeighbourAgent* list = out.open(at, grid.candidateCount(positions[i], r));
+                count = gatherGeneric(grid, positions[i], r, self, list);
+            }
             out.close(at, count);
             agentSlice_[i] = slice(t, at, count);
             world.segmentsNear(positions[i], r, near);

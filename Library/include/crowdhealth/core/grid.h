@@ -28,8 +28,7 @@ public:
     void forEachWithin(const Vec2& p, double radius, F&& f) const;
 
     /// Calls f(j, offset, distSq) for every point forEachWithin(p, radius, ·) examines — the
-    /// points of the cells the query disc's chord touches in each row of cells (rowRun), in the
-    /// same order — whether or not it lies
+    /// points of the cells the query disc touches, in the same order — whether or not it lies
     /// within `radius` (candidateCount(p, radius) calls). For callers that test the distance
     /// without a branch (a list append that always writes and advances by the test's outcome):
     /// in a crowd whose listing order within cells is irregular, the branch of forEachWithin is
@@ -54,38 +53,27 @@ public:
     const std::vector<double>& sortedX() const { return sortedX_; }
     const std::vector<double>& sortedY() const { return sortedY_; }
 
-    /// Plane only: the rows of cells [y0, y1] a query disc of `radius` around p may touch (y0 > y1
-    /// when it misses the grid). With rowRun, what forEachCandidate visits, for callers that scan
-    /// order()/sortedX()/sortedY() themselves.
-    struct Rows {
-        int y0, y1;
+    /// A run of order(): positions [begin, end).
+    struct Run {
+        int begin, end;
     };
-    Rows rowsAround(const Vec2& p, double radius) const {
+    /// Plane only: the runs of order() forEachCandidate(p, radius, ·) scans — one per row of cells
+    /// the query disc's bounding box touches, in row order, empty ones left out — into
+    /// runs[0, count); returns false (and nothing else) if there are more than maxRuns rows.
+    /// `total` is their summed length, candidateCount(p, radius).
+    bool rowRuns(const Vec2& p, double radius, Run* runs, int maxRuns, int& count, std::size_t& total) const {
+        count = 0;
+        total = 0;
         const CellBox b = boxAround(p, radius);
-        if (b.x0 > b.x1) return Rows{0, -1};
-        return Rows{b.y0, b.y1};
-    }
-    /// Plane only: the positions [k0, k1) in order() of the cells of row y (from rowsAround) that
-    /// the query disc's chord in that row's band touches (issue 20: the corner cells of the
-    /// bounding box hold no neighbour). Padded like boxAround, so that no point within `radius`
-    /// (by the distance the callers compute) is left out; k0 == k1 when none can be in range.
-    void rowRun(const Vec2& p, double radius, int y, int& k0, int& k1) const {
-        const double reach = radius + 1e-6;
-        // Distance from p.y to the row's band [lo, lo + ch], less the pad: a point binned to this
-        // row (by a division that may round) is at least that far from p along y.
-        const double lo = origin_.y() + y * ch_;
-        const double gap = std::max(lo - p.y(), p.y() - (lo + ch_)) - 1e-6;
-        const double dy = gap > 0 ? gap : 0.0;
-        const double w2 = reach * reach - dy * dy;
-        k0 = k1 = 0;
-        if (!(w2 >= 0)) return;
-        const double w = std::sqrt(w2) + 1e-6;
-        const double ix = 1.0 / cw_;
-        const int x0 = std::max(0, floorClamped((p.x() - w - origin_.x()) * ix, nx_));
-        const int x1 = std::min(nx_ - 1, floorClamped((p.x() + w - origin_.x()) * ix, nx_));
-        if (x0 > x1) return;
-        k0 = cellStart_[y * nx_ + x0];
-        k1 = cellStart_[y * nx_ + x1 + 1];
+        if (b.x0 > b.x1) return true;
+        if (b.y1 - b.y0 + 1 > maxRuns) return false;
+        for (int y = b.y0; y <= b.y1; ++y) {
+            const int k0 = cellStart_[y * nx_ + b.x0], k1 = cellStart_[y * nx_ + b.x1 + 1];
+            runs[count] = Run{k0, k1};
+            count += k1 > k0 ? 1 : 0;
+            total += static_cast<std::size_t>(k1 - k0);
+        }
+        return true;
     }
 
     /// to − from, the shortest such vector on a torus (the domain of the last build()).
@@ -166,18 +154,20 @@ void PointGrid::forEachCandidate(const Vec2& query, double radius, F&& f) const 
     if (points_ == nullptr || sorted_.empty()) return;
     const Vec2 p = query;  // a local copy: f may store to memory the query point could alias
     if (!periodic_) {
-        // Only the cells touched by the query disc's bounding box (boxAround), and in each row
-        // only those its chord touches (rowRun). Cells of one row are contiguous in sorted_, so
-        // each row is one run over sortedX_/sortedY_. The visit order (rows, then cells, then
-        // ascending index) is the same as scanning whole cells, so sums over neighbours do not
-        // change.
+        // Only the cells touched by the query disc's bounding box (boxAround). Cells of one row
+        // are contiguous in sorted_, so each row is one run over sortedX_/sortedY_. The visit
+        // order (rows, then cells, then ascending index) is the same as scanning whole cells, so
+        // sums over neighbours do not change.
         // (Multiplying by the inverse cell size may round differently from the division used to
         // bin the points, by far less than the pad.)
-        const Rows rows = rowsAround(p, radius);
-        for (int y = rows.y0; y <= rows.y1; ++y) {
-            int k0, k1;
-            rowRun(p, radius, y, k0, k1);
-            for (int k = k0; k < k1; ++k) {
+        // (Trimming each row to the disc's chord, issue 20, skipped the corner cells but cost
+        // more per row than it saved: docs/performance.md.)
+        const CellBox b = boxAround(p, radius);
+        if (b.x0 > b.x1) return;
+        for (int y = b.y0; y <= b.y1; ++y) {
+            const int row = y * nx_;
+            const int end = cellStart_[row + b.x1 + 1];
+            for (int k = cellStart_[row + b.x0]; k < end; ++k) {
                 const Vec2 d = Vec2(sortedX_[k], sortedY_[k]) - p;
                 f(sorted_[k], d, d.squaredNorm());
             }
