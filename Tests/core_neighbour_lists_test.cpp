@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <utility>
 #include <vector>
 
@@ -123,4 +124,162 @@ BOOST_AUTO_TEST_CASE(torus_cells_of_half_the_radius_give_the_same_lists) {
         for (const auto& [j, d] : half[i])
             across += (c.pos[static_cast<std::size_t>(j)] - c.pos[i]).norm() > 1.0 ? 1 : 0;
     BOOST_TEST(across > 0);
+}
+
+namespace {
+
+/// A crowd that probes the edges of the gather paths (issue 20): random points, duplicates, points
+/// at exactly r (and at r along other directions) from others, points on cell borders and, if
+/// `farFlung`, agents kilometres away (the grid's cells then grow past the requested size).
+Crowd edgyCrowd(int n, double w, double h, double r, double cell, bool farFlung, std::uint64_t seed) {
+    Crowd c = crowd(n, w, h, seed);
+    Rng rng(seed + 1);
+    // The lowest, leftmost point: the plane grid's origin, so that k·cell from it is a cell border.
+    const Vec2 corner(-0.5 * w - 1, -0.5 * h - 1);
+    c.pos.push_back(corner);
+    for (int k = 0; k < 40; ++k) {
+        const double bx = corner.x() + cell * std::floor(rng.uniform(0, std::floor(w / cell)));
+        const double by = corner.y() + cell * std::floor(rng.uniform(0, std::floor(h / cell)));
+        c.pos.emplace_back(bx, corner.y() + rng.uniform(0, h));
+        c.pos.emplace_back(corner.x() + rng.uniform(0, w), by);
+        c.pos.emplace_back(bx, by);
+        c.pos.emplace_back(bx + r, by);  // exactly r away along x (if the sum is exact)
+    }
+    for (int k = 0; k < 30; ++k) {
+        const Vec2 p = c.pos[static_cast<std::size_t>(k)];
+        c.pos.push_back(p);  // a duplicate
+        c.pos.emplace_back(p.x() + r, p.y());
+        c.pos.emplace_back(p.x(), p.y() - r);
+        c.pos.emplace_back(p.x() - 0.6 * r, p.y() + 0.8 * r);
+        const double a = rng.uniform(0, 6.283185307179586);
+        c.pos.emplace_back(p.x() + r * std::cos(a), p.y() + r * std::sin(a));  // near the chord's end
+        c.pos.emplace_back(p.x() + 0.6 * r * std::cos(a), p.y() + 0.6 * r * std::sin(a));
+    }
+    if (farFlung) {
+        c.pos.emplace_back(5e4, 3e4);
+        c.pos.emplace_back(5e4 + r, 3e4);
+        c.pos.emplace_back(-2e4, 1e2);
+    }
+    c.group.resize(c.pos.size());
+    for (std::size_t i = 0; i < c.pos.size(); ++i) c.group[i] = i % 3 == 0 ? 1 : 0;
+    return c;
+}
+
+/// Agent i's list as (index, offset) in list order.
+std::vector<std::vector<std::pair<int, Vec2>>> listsOf(const NeighbourLists& lists) {
+    std::vector<std::vector<std::pair<int, Vec2>>> out(lists.size());
+    for (std::size_t i = 0; i < lists.size(); ++i)
+        for (const NeighbourAgent& nb : lists.agents(i)) out[i].emplace_back(nb.index, Vec2(nb.offset));
+    return out;
+}
+
+}  // namespace
+
+BOOST_AUTO_TEST_CASE(every_gather_path_gives_the_same_lists) {
+    const int original = NeighbourLists::gatherPath();
+    const World world(WorldSpec{}, {});
+    int pathsRun = 0;
+    for (const double r : {1.0, 5.0}) {
+        for (const bool farFlung : {false, true}) {
+            // The grid the lists use: the step grid (cells r/2) for 1 m, their own (r/4) for 5 m.
+            const double cell = r >= NeighbourLists::kFineGridFrom ? r / NeighbourLists::kFineGridCells : 0.5 * r;
+            const Crowd c = edgyCrowd(r < 2 ? 1500 : 800, 24, 16, r, cell, farFlung, farFlung ? 77 : 78);
+            const std::vector<double> range = {r, 0.6 * r};
+            // Path 0 (generic) against brute force, the others against path 0 entry by entry.
+            BOOST_TEST_REQUIRE(NeighbourLists::setGatherPath(0));
+            std::vector<std::vector<std::pair<int, Vec2>>> reference;
+            PointGrid grid;
+            grid.build(c.pos, 0.5 * r);
+            {
+                NeighbourLists lists;
+                lists.build(c.pos, grid, world, c.group, range);
+                reference = listsOf(lists);
+            }
+            std::size_t atExactlyR = 0;
+            for (std::size_t i = 0; i < c.pos.size(); ++i) {
+                const double ri = range[static_cast<std::size_t>(c.group[i])];
+                std::vector<int> expected, got;
+                for (std::size_t j = 0; j < c.pos.size(); ++j) {
+                    const double d2 = (c.pos[j] - c.pos[i]).squaredNorm();
+                    if (j != i && d2 <= ri * ri) expected.push_back(static_cast<int>(j));
+                    atExactlyR += j != i && d2 == ri * ri ? 1 : 0;
+                }
+                for (const auto& e : reference[i]) got.push_back(e.first);
+                std::sort(got.begin(), got.end());
+                BOOST_TEST(got == expected, "agent " << i << " r " << r);
+            }
+            BOOST_TEST(atExactlyR > 0);  // the crowd does probe the boundary
+            for (int path = 1; path <= 2; ++path) {
+                if (!NeighbourLists::setGatherPath(path)) {
+                    BOOST_TEST_MESSAGE("gather path " << path << " not run: this CPU lacks it");
+                    continue;
+                }
+                ++pathsRun;
+                NeighbourLists lists;
+                lists.build(c.pos, grid, world, c.group, range);
+                const auto mine = listsOf(lists);
+                BOOST_TEST_REQUIRE(mine.size() == reference.size());
+                for (std::size_t i = 0; i < mine.size(); ++i) {
+                    BOOST_TEST_REQUIRE(mine[i].size() == reference[i].size(), "path " << path << " agent " << i);
+                    for (std::size_t k = 0; k < mine[i].size(); ++k) {
+                        BOOST_TEST(mine[i][k].first == reference[i][k].first);
+                        BOOST_TEST(std::memcmp(mine[i][k].second.data(), reference[i][k].second.data(),
+                                               2 * sizeof(double)) == 0);
+                    }
+                }
+            }
+        }
+    }
+    BOOST_TEST_MESSAGE("gather paths compared: " << pathsRun << " (of 8)");
+    NeighbourLists::setGatherPath(original);
+}
+
+BOOST_AUTO_TEST_CASE(row_runs_are_what_forEachCandidate_scans) {
+    // Points at the centres of 1 m cells of a 11 × 11 grid from (0, 0), and on cell borders.
+    std::vector<Vec2> pts;
+    for (int y = 0; y <= 10; ++y)
+        for (int x = 0; x <= 10; ++x) pts.emplace_back(x + 0.5, y + 0.5);
+    pts.emplace_back(0, 0);  // origin
+    for (int k = 1; k < 10; ++k) pts.emplace_back(k, 5.5), pts.emplace_back(5.5, k), pts.emplace_back(k, k);
+    PointGrid g;
+    g.build(pts, 1.0);
+    // Points at exactly 2 m from (5.5, 5.5) in the box's edge rows and columns are found.
+    const Vec2 p(5.5, 5.5);
+    const std::vector<int> in = g.within(p, 2.0);
+    for (const int j : {7 * 11 + 5, 3 * 11 + 5, 5 * 11 + 7, 5 * 11 + 3})  // (5.5, 7.5), (5.5, 3.5), ...
+        BOOST_TEST((std::find(in.begin(), in.end(), j) != in.end()));
+    Rng rng(9);
+    for (int q = 0; q < 3000; ++q) {
+        const Vec2 qp(rng.uniform(-3, 14), rng.uniform(-3, 14));
+        const double r = q % 5 == 0 ? 2.0 : rng.uniform(0.1, 4.0);
+        // The runs hold exactly what forEachCandidate visits, in its order.
+        std::vector<int> visited, found;
+        g.forEachCandidate(qp, r, [&](int j, const Vec2&, double d2) {
+            visited.push_back(j);
+            if (d2 <= r * r) found.push_back(j);
+        });
+        PointGrid::Run runs[16];
+        int nRuns = -1;
+        std::size_t total = 0;
+        BOOST_TEST_REQUIRE(g.rowRuns(qp, r, runs, 16, nRuns, total));
+        std::vector<int> fromRuns;
+        for (int k = 0; k < nRuns; ++k) {
+            BOOST_TEST(runs[k].begin < runs[k].end);
+            for (int m = runs[k].begin; m < runs[k].end; ++m) fromRuns.push_back(g.order()[static_cast<std::size_t>(m)]);
+        }
+        BOOST_TEST(fromRuns == visited);
+        BOOST_TEST(total == visited.size());
+        BOOST_TEST(total == g.candidateCount(qp, r));
+        // Every point within r is visited.
+        std::vector<int> expected;
+        for (std::size_t j = 0; j < pts.size(); ++j)
+            if ((pts[j] - qp).squaredNorm() <= r * r) expected.push_back(static_cast<int>(j));
+        std::sort(found.begin(), found.end());
+        BOOST_TEST(found == expected);
+    }
+    // More rows than the caller has room for: false.
+    PointGrid::Run few[2];
+    int nRuns = 0;
+    std::size_t total = 0;
+    BOOST_TEST(!g.rowRuns(p, 2.0, few, 2, nRuns, total));
 }

@@ -78,13 +78,15 @@ void PointGrid::build(const std::vector<Vec2>& points, double cellSize, bool per
     }
     for (int c = 0; c < ncells; ++c) cellStart_[c + 1] += cellStart_[c];
     sorted_.resize(n);
-    sortedPos_.resize(n);
+    sortedX_.resize(n);
+    sortedY_.resize(n);
     fill_.assign(cellStart_.begin(), cellStart_.end() - 1);
     // Counting sort, stable: within a cell, indices stay ascending.
     for (std::size_t i = 0; i < n; ++i) {
         const int k = fill_[cellOf_[i]]++;
         sorted_[k] = static_cast<int>(i);
-        sortedPos_[k] = points[i];
+        sortedX_[k] = points[i].x();
+        sortedY_[k] = points[i].y();
     }
 }
 

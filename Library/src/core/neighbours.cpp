@@ -7,9 +7,210 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <array>
+#include <atomic>
 #include <cmath>
 
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#include <immintrin.h>
+#define CH_NL_X86 1
+#define CH_NL_AVX2 __attribute__((target("avx2")))
+#define CH_NL_AVX512 __attribute__((target("avx512f,avx512dq,avx512vl")))
+// No fused multiply-add in the vector gathers: dx·dx + dy·dy must round like the scalar path's
+// (the generic x86-64 build has no FMA), or a point at exactly r could be in one list and not the
+// other. (GCC's intrinsics are vector-extension arithmetic, which it contracts where allowed.)
+#define CH_NL_NO_CONTRACT __attribute__((optimize("fp-contract=off")))
+#endif
+
 namespace ch {
+
+namespace {
+
+/// Gather paths (NeighbourLists::gatherPath): 0 generic (forEachCandidate, a branch-free append
+/// per candidate), 1 AVX2 (the distance test four candidates at a time), 2 AVX-512 (eight at a
+/// time, the selected entries compressed and written three registers at once).
+/// Entries a path may write past the end of a list (the buffer is opened with this much slack).
+constexpr std::size_t kGatherSlack = 8;
+
+/// The generic gather: the scalar branch-free append (every candidate is written at `count`, which
+/// advances only for the others within r), over any grid.
+std::size_t gatherGeneric(const PointGrid& grid, const Vec2& p, double r, int self, NeighbourAgent* list) {
+    std::size_t count = 0;
+    const double r2 = r * r;
+    grid.forEachCandidate(p, r, [&](int j, const Vec2& d, double d2) {
+        list[count] = NeighbourAgent{d, j};
+        count += static_cast<std::size_t>((d2 <= r2) & (j != self));
+    });
+    return count;
+}
+
+/// Rows of cells a query may span before a gather falls back to forEachCandidate (a list
+/// radius of 64 cells; the lists' grids have cells of half or a quarter of it).
+constexpr int kMaxRuns = 64;
+using Run = PointGrid::Run;
+
+/// The same append over the runs of PointGrid::rowRuns (plane grids).
+std::size_t gatherRuns(const PointGrid& grid, const Run* runs, int nRuns, const Vec2& p, double r, int self,
+                       NeighbourAgent* list) {
+    const double* xs = grid.sortedX().data();
+    const double* ys = grid.sortedY().data();
+    const int* idx = grid.order().data();
+    const double r2 = r * r;
+    std::size_t count = 0;
+    for (int q = 0; q < nRuns; ++q)
+        for (int k = runs[q].begin; k < runs[q].end; ++k) {
+            const Vec2 d = Vec2(xs[k], ys[k]) - p;
+            const int j = idx[k];
+            list[count] = NeighbourAgent{d, j};
+            count += static_cast<std::size_t>((d.squaredNorm() <= r2) & (j != self));
+        }
+    return count;
+}
+
+#ifdef CH_NL_X86
+/// AVX2: per row run (PointGrid::rowRun), the offsets and the distance test four lanes at a time,
+/// then the branch-free append lane by lane; the run's last < 4 candidates as in gatherGeneric.
+CH_NL_AVX2 CH_NL_NO_CONTRACT
+std::size_t gatherAvx2(const PointGrid& grid, const Run* runs, int nRuns, const Vec2& p, double r, int self,
+                       NeighbourAgent* list) {
+    const double* xs = grid.sortedX().data();
+    const double* ys = grid.sortedY().data();
+    const int* idx = grid.order().data();
+    const double r2 = r * r;
+    const __m256d px = _mm256_set1_pd(p.x()), py = _mm256_set1_pd(p.y()), r2v = _mm256_set1_pd(r2);
+    std::size_t count = 0;
+    for (int q = 0; q < nRuns; ++q) {
+        const int k0 = runs[q].begin, k1 = runs[q].end;
+        int k = k0;
+        for (; k + 4 <= k1; k += 4) {
+            const __m256d dx = _mm256_sub_pd(_mm256_loadu_pd(xs + k), px);
+            const __m256d dy = _mm256_sub_pd(_mm256_loadu_pd(ys + k), py);
+            const __m256d d2 = _mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy));
+            const unsigned in = static_cast<unsigned>(_mm256_movemask_pd(_mm256_cmp_pd(d2, r2v, _CMP_LE_OQ)));
+            alignas(32) double ax[4], ay[4];
+            _mm256_store_pd(ax, dx);
+            _mm256_store_pd(ay, dy);
+            for (int l = 0; l < 4; ++l) {
+                const int j = idx[k + l];
+                NeighbourAgent& e = list[count];
+                e.offset.x() = ax[l];
+                e.offset.y() = ay[l];
+                e.index = j;
+                count += ((in >> l) & 1u) & static_cast<unsigned>(j != self);
+            }
+        }
+        for (; k < k1; ++k) {
+            const Vec2 d = Vec2(xs[k], ys[k]) - p;
+            const int j = idx[k];
+            list[count] = NeighbourAgent{d, j};
+            count += static_cast<std::size_t>((d.squaredNorm() <= r2) & (j != self));
+        }
+    }
+    return count;
+}
+
+/// Where AVX-512 entry field q of eight entries (24 quadwords: offset x, offset y, index per
+/// entry) comes from: 3·e + f ← field f of lane e.
+struct Interleave {
+    std::array<long long, 24> fromXY;  ///< for permutex2var over (x, y): e or 8 + e; 0 for index fields
+    std::array<long long, 24> fromIndex;  ///< e for index fields
+    std::array<unsigned char, 3> indexLanes;  ///< per output register, the lanes that take an index
+};
+constexpr Interleave makeInterleave() {
+    Interleave t{};
+    for (int q = 0; q < 24; ++q) {
+        const int e = q / 3, f = q % 3;
+        t.fromXY[q] = f == 0 ? e : f == 1 ? 8 + e : 0;
+        t.fromIndex[q] = f == 2 ? e : 0;
+        if (f == 2) t.indexLanes[q / 8] = static_cast<unsigned char>(t.indexLanes[q / 8] | (1u << (q % 8)));
+    }
+    return t;
+}
+constexpr Interleave kInterleave = makeInterleave();
+
+/// AVX-512: per row run, eight candidates at a time (the run's tail by masked loads): the lanes
+/// within r and not self are compressed to the front of the x, y and index registers, interleaved
+/// into eight 24-byte entries by two permutes per register, stored whole (three 64-byte stores)
+/// and `count` advances by their number. The stores may run up to kGatherSlack entries past the
+/// list's end; entries past `count` are overwritten by the next list or never read.
+CH_NL_AVX512 CH_NL_NO_CONTRACT
+std::size_t gatherWide(const PointGrid& grid, const Run* runs, int nRuns, const Vec2& p, double r, int self,
+                       NeighbourAgent* list) {
+    const double* xs = grid.sortedX().data();
+    const double* ys = grid.sortedY().data();
+    const int* idx = grid.order().data();
+    const __m512d px = _mm512_set1_pd(p.x()), py = _mm512_set1_pd(p.y()), r2v = _mm512_set1_pd(r * r);
+    const __m256i selfv = _mm256_set1_epi32(self);
+    __m512i fromXY[3], fromIndex[3];
+    for (int v = 0; v < 3; ++v) {
+        fromXY[v] = _mm512_loadu_si512(kInterleave.fromXY.data() + 8 * v);
+        fromIndex[v] = _mm512_loadu_si512(kInterleave.fromIndex.data() + 8 * v);
+    }
+    std::size_t count = 0;
+    for (int q = 0; q < nRuns; ++q) {
+        const int k0 = runs[q].begin, k1 = runs[q].end;
+        for (int k = k0; k < k1; k += 8) {
+            const int left = k1 - k;
+            const __mmask8 live = left >= 8 ? __mmask8(0xff) : static_cast<__mmask8>((1u << left) - 1u);
+            const __m512d dx = _mm512_sub_pd(_mm512_maskz_loadu_pd(live, xs + k), px);
+            const __m512d dy = _mm512_sub_pd(_mm512_maskz_loadu_pd(live, ys + k), py);
+            const __m256i j = _mm256_maskz_loadu_epi32(live, idx + k);
+            const __m512d d2 = _mm512_add_pd(_mm512_mul_pd(dx, dx), _mm512_mul_pd(dy, dy));
+            const __mmask8 take = static_cast<__mmask8>(_mm512_mask_cmp_pd_mask(live, d2, r2v, _CMP_LE_OQ) &
+                                                        _mm256_cmpneq_epi32_mask(j, selfv));
+            const __m512d cx = _mm512_maskz_compress_pd(take, dx);
+            const __m512d cy = _mm512_maskz_compress_pd(take, dy);
+            const __m512d ci = _mm512_castsi512_pd(_mm512_maskz_cvtepu32_epi64(0xff, _mm256_maskz_compress_epi32(take, j)));
+            double* to = reinterpret_cast<double*>(list + count);
+            for (int v = 0; v < 3; ++v) {
+                const __m512d xy = _mm512_permutex2var_pd(cx, fromXY[v], cy);
+                _mm512_storeu_pd(to + 8 * v,
+                                 _mm512_mask_permutexvar_pd(xy, kInterleave.indexLanes[v], fromIndex[v], ci));
+            }
+            count += static_cast<std::size_t>(__builtin_popcount(take));
+        }
+    }
+    return count;
+}
+#endif
+
+/// Whether this CPU runs gather path `path`.
+bool cpuRuns(int path) {
+#ifdef CH_NL_X86
+    __builtin_cpu_init();  // a static initialiser may run before libgcc's own
+    if (path == 1) return __builtin_cpu_supports("avx2");
+    if (path == 2)
+        return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") &&
+               __builtin_cpu_supports("avx512vl");
+#endif
+    return path == 0;
+}
+
+/// The gather path in use: the best this CPU runs, found once when the program starts.
+std::atomic<int> gGatherPath{cpuRuns(2) ? 2 : cpuRuns(1) ? 1 : 0};
+
+std::size_t gatherRunsOn(int path, const PointGrid& grid, const Run* runs, int nRuns, const Vec2& p, double r,
+                         int self, NeighbourAgent* list) {
+#ifdef CH_NL_X86
+    switch (path) {
+    case 2: return gatherWide(grid, runs, nRuns, p, r, self, list);
+    case 1: return gatherAvx2(grid, runs, nRuns, p, r, self, list);
+    default: break;
+    }
+#endif
+    (void)path;
+    return gatherRuns(grid, runs, nRuns, p, r, self, list);
+}
+
+}  // namespace
+
+int NeighbourLists::gatherPath() { return gGatherPath.load(); }
+
+bool NeighbourLists::setGatherPath(int path) {
+    if (!cpuRuns(path)) return false;
+    gGatherPath.store(path);
+    return true;
+}
 
 NeighbourLists::Slice NeighbourLists::slice(int thread, const Place& at, std::size_t count) {
     return Slice{static_cast<std::uint32_t>(thread), static_cast<std::uint32_t>(at.block),
@@ -44,6 +245,8 @@ void NeighbourLists::build(const std::vector<Vec2>& positions, const PointGrid& 
     segmentSlice_.resize(n);
     group_ = &group;
     rangeOfGroup_ = rangeOfGroup;
+    const bool periodic = grid.periodic();
+    const int path = gGatherPath.load(std::memory_order_relaxed);
 
 #pragma omp parallel num_threads(threads) if (parallelNeighbourLoop(n))
     {
@@ -59,15 +262,20 @@ void NeighbourLists::build(const std::vector<Vec2>& positions, const PointGrid& 
             const int self = static_cast<int>(i);
             const double r = rangeOfGroup[static_cast<std::size_t>(group[i])];
             Place at;
-            NeighbourAgent* list = out.open(at, grid.candidateCount(positions[i], r));
-            std::size_t count = 0;
-            const double r2 = r * r;
-            // Branch-free append: every candidate is written at `count`, which advances only for
-            // the others within r (the buffer holds candidateCount entries, so this stays inside).
-            grid.forEachCandidate(positions[i], r, [&](int j, const Vec2& d, double d2) {
-                list[count] = NeighbourAgent{d, j};
-                count += static_cast<std::size_t>((d2 <= r2) & (j != self));
-            });
+            // The runs of order() to scan (plane grids, at most kMaxRuns rows), found once for both
+            // the room to ask for (every candidate plus what a vector gather may write past its
+            // last entry) and the gather; else (a torus, a huge radius) forEachCandidate.
+            Run runs[kMaxRuns];
+            int nRuns = 0;
+            std::size_t candidates = 0;
+            std::size_t count;
+            if (!periodic && grid.rowRuns(positions[i], r, runs, kMaxRuns, nRuns, candidates)) {
+                NeighbourAgent* list = out.open(at, candidates + kGatherSlack);
+                count = gatherRunsOn(path, grid, runs, nRuns, positions[i], r, self, list);
+            } else {
+                NeighbourAgent* list = out.open(at, grid.candidateCount(positions[i], r));
+                count = gatherGeneric(grid, positions[i], r, self, list);
+            }
             out.close(at, count);
             agentSlice_[i] = slice(t, at, count);
             world.segmentsNear(positions[i], r, near);

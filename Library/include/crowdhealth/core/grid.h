@@ -47,6 +47,34 @@ public:
 
     /// Cell width (x) actually used (≥ the requested size; larger for far-flung points).
     double cellSize() const { return cw_; }
+    bool periodic() const { return periodic_; }
+
+    /// x and y of the points in order() (structure of arrays, for vectorised queries).
+    const std::vector<double>& sortedX() const { return sortedX_; }
+    const std::vector<double>& sortedY() const { return sortedY_; }
+
+    /// A run of order(): positions [begin, end).
+    struct Run {
+        int begin, end;
+    };
+    /// Plane only: the runs of order() forEachCandidate(p, radius, ·) scans — one per row of cells
+    /// the query disc's bounding box touches, in row order, empty ones left out — into
+    /// runs[0, count); returns false (and nothing else) if there are more than maxRuns rows.
+    /// `total` is their summed length, candidateCount(p, radius).
+    bool rowRuns(const Vec2& p, double radius, Run* runs, int maxRuns, int& count, std::size_t& total) const {
+        count = 0;
+        total = 0;
+        const CellBox b = boxAround(p, radius);
+        if (b.x0 > b.x1) return true;
+        if (b.y1 - b.y0 + 1 > maxRuns) return false;
+        for (int y = b.y0; y <= b.y1; ++y) {
+            const int k0 = cellStart_[y * nx_ + b.x0], k1 = cellStart_[y * nx_ + b.x1 + 1];
+            runs[count] = Run{k0, k1};
+            count += k1 > k0 ? 1 : 0;
+            total += static_cast<std::size_t>(k1 - k0);
+        }
+        return true;
+    }
 
     /// to − from, the shortest such vector on a torus (the domain of the last build()).
     Vec2 offset(const Vec2& from, const Vec2& to) const {
@@ -67,7 +95,7 @@ private:
     int nx_ = 1, ny_ = 1;
     std::vector<int> cellStart_;  ///< size nx*ny+1, counting-sort offsets
     std::vector<int> sorted_;     ///< point indices, grouped by cell (row-major cells)
-    std::vector<Vec2> sortedPos_; ///< points[sorted_[k]]: queries read positions contiguously
+    std::vector<double> sortedX_, sortedY_;  ///< points[sorted_[k]]: queries read positions contiguously
     std::vector<int> cellOf_, fill_;  ///< build scratch, kept to avoid allocating every step
 
     int cellX(double x) const { return static_cast<int>(std::floor((x - origin_.x()) / cw_)); }
@@ -127,18 +155,20 @@ void PointGrid::forEachCandidate(const Vec2& query, double radius, F&& f) const 
     const Vec2 p = query;  // a local copy: f may store to memory the query point could alias
     if (!periodic_) {
         // Only the cells touched by the query disc's bounding box (boxAround). Cells of one row
-        // are contiguous in sorted_, so each row is one run over sortedPos_. The visit order (rows,
-        // then cells, then ascending index) is the same as scanning whole cells, so sums over
-        // neighbours do not change.
+        // are contiguous in sorted_, so each row is one run over sortedX_/sortedY_. The visit
+        // order (rows, then cells, then ascending index) is the same as scanning whole cells, so
+        // sums over neighbours do not change.
         // (Multiplying by the inverse cell size may round differently from the division used to
         // bin the points, by far less than the pad.)
+        // (Trimming each row to the disc's chord, issue 20, skipped the corner cells but cost
+        // more per row than it saved: docs/performance.md.)
         const CellBox b = boxAround(p, radius);
         if (b.x0 > b.x1) return;
         for (int y = b.y0; y <= b.y1; ++y) {
             const int row = y * nx_;
             const int end = cellStart_[row + b.x1 + 1];
             for (int k = cellStart_[row + b.x0]; k < end; ++k) {
-                const Vec2 d = sortedPos_[k] - p;
+                const Vec2 d = Vec2(sortedX_[k], sortedY_[k]) - p;
                 f(sorted_[k], d, d.squaredNorm());
             }
         }
@@ -154,7 +184,7 @@ void PointGrid::forEachCandidate(const Vec2& query, double radius, F&& f) const 
             const int y = ((cy + oy) % ny_ + ny_) % ny_;
             const int c = y * nx_ + x;
             for (int k = cellStart_[c]; k < cellStart_[c + 1]; ++k) {
-                Vec2 d = sortedPos_[k] - p;
+                Vec2 d = Vec2(sortedX_[k], sortedY_[k]) - p;
                 d.x() -= width_ * std::round(d.x() / width_);
                 d.y() -= height_ * std::round(d.y() / height_);
                 f(sorted_[k], d, d.squaredNorm());

@@ -44,6 +44,13 @@ public:
     void build(const std::vector<Vec2>& positions, const PointGrid& grid, const World& world,
                const std::vector<int>& group, const std::vector<double>& rangeOfGroup);
 
+    /// How the lists are gathered (issue 20), chosen when the program starts: 0 generic (a scalar
+    /// branch-free append per candidate), 1 AVX2, 2 AVX-512 (x86-64 CPUs that have them; periodic
+    /// worlds always use 0). All give the same lists, entry by entry, to the bit.
+    static int gatherPath();
+    /// Forces gather path `path` (tests, benchmarks); false (and no change) if this CPU lacks it.
+    static bool setGatherPath(int path);
+
     /// Largest list radius (m) from which lists are gathered from a finer grid of their own.
     static constexpr double kFineGridFrom = 2.0;
     /// Cells per list radius in that grid.
