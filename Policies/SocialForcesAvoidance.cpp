@@ -399,6 +399,9 @@ void SocialForcesAvoidance::prepare(const StepContext& ctx) {
     const bool relative = otherVelocity_ != 0;
     step_.resize(n);
     other_.resize(n);
+    // The field of view's cosine, once per step rather than once per agent (a library cos per
+    // agent was ~1 % of the UMANS 10k run; issue 20). fov may change between steps (schedules).
+    cosFov_ = std::cos(fovDeg_ * kPi / 180.0);
     for (std::size_t j = 0; j < n; ++j) {
         step_[j] = relative ? Vec2(dt_ * A.vel[j]) : Vec2(A.vel[j].norm() * dt_ * normalisedOrZero(A.prefVel[j]));
         // What the pair loop reads of a neighbour, in one 32-byte record (one cache line).
@@ -416,7 +419,7 @@ Vec2 SocialForcesAvoidance::acceleration(const AgentQuery& q, const StepContext&
     // Walking direction for the field of view: the velocity, or the preferred one when at rest.
     Vec2 heading = normalisedOrZero(q.velocity);
     if (heading.squaredNorm() == 0) heading = normalisedOrZero(q.prefVelocity);
-    const double cosFov = std::cos(fovDeg_ * kPi / 180.0);
+    const double cosFov = cosFov_;
 
     const bool relative = otherVelocity_ != 0;
     PairLoop in;

@@ -62,6 +62,7 @@ private:
     std::vector<Vec2> step_;      ///< per agent, set in prepare(): v Δt e (e: preferred direction);
                                   ///< with relative velocities: v Δt (the pair's step is step_[j] − step_[i])
     std::vector<Other> other_;    ///< per agent, set in prepare(): what the pair loop reads
+    double cosFov_ = 0;           ///< cos(fov), set in prepare()
     double dt_ = 2.0;       ///< s, the step Δt in b(R): how far ahead the other's motion counts
     double V0_ = 2.1;       ///< m²/s², strength of the pedestrian potential
     double sigma_ = 0.3;    ///< m, decay length of the pedestrian potential

@@ -2,12 +2,14 @@
 #include "crowdhealth/core/simulation.h"
 
 #include "crowdhealth/core/kernels.h"
+#include "crowdhealth/core/near_filter.h"
 #include "crowdhealth/core/parallel.h"
 #include "crowdhealth/core/rng.h"
 
 #include <omp.h>
 
 #include <algorithm>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -153,16 +155,27 @@ void Simulation::gatherQuery(std::size_t i, AgentQuery& q) const {
     q.segments = lists_.segments(i);
 }
 
-Vec2 Simulation::umansContactAcceleration(const AgentQuery& q, double scale) const {
+Vec2 Simulation::umansContactAcceleration(const AgentQuery& q, double scale, double maxRadius) const {
     // UMANS' contact model: a spring along the centre line for every overlap, applied after the
     // acceleration clamp. `scale` is a stiffness per unit mass (1/s²).
+    // Only neighbours within q.radius + radius_j ≤ q.radius + maxRadius can touch: nearEntries
+    // finds those candidates 64 entries at a time (eight per instruction with AVX-512; issue 20:
+    // the SocialForces lists hold ~78 neighbours within 5 m, of which a handful touch), and each
+    // candidate gets the exact test below, in list order, so the sum has the bits of the full scan.
     Vec2 acc(0, 0);
-    for (const NeighbourAgent& n : q.agents) {
-        const double reach = q.radius + agents_.radius[n.index];
-        if (n.distanceSquared() >= reach * reach) continue;
-        const double d = n.distance();
-        const double overlap = reach - d;
-        if (overlap > 0 && d > 1e-12) acc -= n.offset / d * (scale * overlap);
+    const double bound = q.radius + maxRadius;
+    const double bound2 = bound > 0 ? bound * bound : std::numeric_limits<double>::infinity();
+    const std::size_t m = q.agents.size();
+    for (std::size_t k0 = 0; k0 < m; k0 += 64) {
+        const std::size_t count = std::min<std::size_t>(64, m - k0);
+        for (std::uint64_t near = nearEntries(q.agents.data() + k0, count, bound2); near != 0; near &= near - 1) {
+            const NeighbourAgent& n = q.agents[k0 + static_cast<std::size_t>(std::countr_zero(near))];
+            const double reach = q.radius + agents_.radius[n.index];
+            if (n.distanceSquared() >= reach * reach) continue;
+            const double d = n.distance();
+            const double overlap = reach - d;
+            if (overlap > 0 && d > 1e-12) acc -= n.offset / d * (scale * overlap);
+        }
     }
     for (int s : q.segments) {
         const Segment& seg = world_.segments()[s];
@@ -373,6 +386,10 @@ Vec2 Simulation::symmetryJitter(std::size_t i) const {
 
 void Simulation::evaluateAgents(bool coarseBoundary) {
     const std::size_t n = agents_.size();
+    // The largest radius bounds the reach of UMANS' contact (umansContactAcceleration); NaN radii
+    // never touch, and with none finite the bound is −inf (the filter then keeps every entry).
+    double maxRadius = -std::numeric_limits<double>::infinity();
+    for (const double r : agents_.radius) maxRadius = r > maxRadius ? r : maxRadius;
 #pragma omp parallel if (parallelNeighbourLoop(n))
     {
         AgentQuery q;  // per thread, on its own stack (no shared cache lines); its spans allocate nothing
@@ -406,7 +423,7 @@ void Simulation::evaluateAgents(bool coarseBoundary) {
                         reported += w * e.coeff * (*f)[i];
             }
             Vec2 contact(0, 0);
-            if (policy.contactForceScale() > 0) contact = umansContactAcceleration(q, policy.contactForceScale());
+            if (policy.contactForceScale() > 0) contact = umansContactAcceleration(q, policy.contactForceScale(), maxRadius);
             fineAccel_[i] = fine;
             stopped_[i] = stop ? 1 : 0;
             umansContact_[i] = contact;

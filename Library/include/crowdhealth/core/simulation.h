@@ -177,7 +177,9 @@ private:
     /// for a newcomer): moves the held coarse accelerations and tells every component
     /// (Component::remapAgents). The one place per-agent state follows the store.
     void followAgents(const std::vector<int>& previous);
-    Vec2 umansContactAcceleration(const AgentQuery& q, double scale) const;
+    /// UMANS' post-clamp contact of q's agent; maxRadius ≥ every agent's radius (a bound for
+    /// the reach, which skips the neighbours that cannot touch).
+    Vec2 umansContactAcceleration(const AgentQuery& q, double scale, double maxRadius) const;
 
     ScenarioSpec spec_;
     World world_;
