@@ -9,9 +9,13 @@
 #include "test_support.h"
 
 #include "crowdhealth/health/health.h"
+#include "crowdhealth/health/safety.h"
 #include "crowdhealth/io/xml.h"
 
+#include <cmath>
+#include <sstream>
 #include <string>
+#include <vector>
 
 using namespace ch;
 using namespace ch::test;
@@ -85,4 +89,47 @@ BOOST_AUTO_TEST_CASE(crush_flags_are_withheld_while_a_threshold_differs_from_the
     BOOST_REQUIRE(flags != nullptr);
     std::size_t above = 0;
     BOOST_TEST(disagreements(sim, flags, above) == 0u);
+}
+
+BOOST_AUTO_TEST_CASE(safety_recorder_counts_the_same_crush_with_the_flags_as_with_the_records) {
+    // Two recorders of the same run: one reads the flags; before the other records, every
+    // threshold is raised by one ulp (the flags are withheld: it reads the records), then set
+    // back before the next step. A force within that ulp of a threshold would differ; none does.
+    Diagnostics diags;
+    auto spec = loadScenario(std::string(CH_SOURCE_DIR) + "/Examples/future-work/injuries.xml", diags);
+    BOOST_REQUIRE(spec.has_value());
+    spec->endTime = 60;
+    Simulation sim(*spec);
+    SafetyRecorder flags(spec->safety), records(spec->safety);
+    const std::size_t policies = sim.policies().size();
+    std::size_t withheld = 0;
+    while (true) {
+        flags.record(sim);
+        std::vector<double> kept(policies);
+        for (std::size_t p = 0; p < policies; ++p) {
+            double& th = sim.health().params(p).crushThreshold;
+            kept[p] = th;
+            th = std::nextafter(th, 1e300);
+        }
+        if (sim.health().crushFlags() == nullptr) ++withheld;
+        records.record(sim);
+        for (std::size_t p = 0; p < policies; ++p) sim.health().params(p).crushThreshold = kept[p];
+        if (sim.finished()) break;
+        sim.stepCoarse();
+    }
+    BOOST_TEST(withheld > 500u);
+    const std::string heat = flags.heatmapCsv();
+    BOOST_TEST(heat == records.heatmapCsv());
+    // The case has crush cells: some seconds_above_crush_threshold (6th column) is not 0.
+    std::istringstream in(heat);
+    std::string line;
+    std::getline(in, line);
+    std::size_t crushCells = 0;
+    while (std::getline(in, line)) {
+        std::istringstream row(line);
+        std::string cell;
+        for (int c = 0; c < 6; ++c) std::getline(row, cell, ',');
+        if (!cell.empty() && std::stod(cell) > 0) ++crushCells;
+    }
+    BOOST_TEST(crushCells > 0u);
 }

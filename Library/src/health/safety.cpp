@@ -520,9 +520,13 @@ void SafetyRecorder::recordAt(const AgentStore& a, double t, const HealthLayer* 
         const std::size_t k = f.cellOfAgent[i];
         contact[k] = std::max(contact[k], a.contactAccel[i].norm());
         const int rec = a.record[i];
-        const bool above = crushed != nullptr && rec >= 0
-                               ? crushed[static_cast<std::size_t>(rec)] != 0
-                               : h.recordOf(a, i).lastForce > h.params(h.recordOf(a, i).policy).crushThreshold;
+        bool above;
+        if (crushed != nullptr && rec >= 0) {
+            above = crushed[static_cast<std::size_t>(rec)] != 0;
+        } else {
+            const HealthRecord& r = h.recordOf(a, i);
+            above = r.lastForce > h.params(r.policy).crushThreshold;
+        }
         if (above) {
             crushCells.emplace_back(f.iy[k], f.ix[k]);
             held[Crush] = true;
