@@ -231,6 +231,9 @@ struct Result {
     double agentStepsPerSec = 0;
     double hwmMiB = 0, rssMiB = 0;
     double phaseMs[Simulation::kPhases] = {};
+    /// Mean ms per step outside every timed phase: the health layer's endStep (crush, injuries,
+    /// falls, the heading change with its atan2), the swaps of the state arrays and the schedule.
+    double otherMs = 0;
     double limitMs = 0;      ///< tight-kernel lower bound for the same pair work (dense SPH)
     double pairsPerAgent = 0;
     double extra1 = 0, extra2 = 0;  ///< neighbour search: build ms, ns per query; kernel: pairs/s
@@ -349,6 +352,11 @@ Result runSimCase(const Case& c) {
     r.msMax = *std::max_element(ms.begin(), ms.end());
     r.agentStepsPerSec = static_cast<double>(agentSteps) / (total * 1e-3);
     fillPhases(r, *sim, c.steps);
+    {
+        double phases = 0;
+        for (double p : r.phaseMs) phases += p;
+        r.otherMs = std::max(0.0, total / c.steps - phases);
+    }
     r.hash = stateHash(sim->agents());
     r.hwmMiB = statusKiB("VmHWM") / 1024.0;
     r.rssMiB = statusKiB("VmRSS") / 1024.0;
@@ -1111,13 +1119,15 @@ int main(int argc, char** argv) {
     std::printf("\nphase breakdown (mean ms per step)\n%-14s %8s %3s", "scene", "agents", "thr");
     for (std::size_t p = 0; p < Simulation::kPhases; ++p)
         std::printf(" %11s", Simulation::phaseName(static_cast<Simulation::Phase>(p)));
-    std::printf("\n");
+    std::printf(" %11s\n", "other");
     for (const Result& r : results) {
         if (std::strcmp(r.kind, "step") != 0) continue;
         std::printf("%-14s %8.0f %3.0f", r.scene, r.n, r.threads);
         for (double ms : r.phaseMs) std::printf(" %11.3f", ms);
-        std::printf("\n");
+        std::printf(" %11.3f\n", r.otherMs);
     }
+    std::printf("other = the step's time outside the phases above (mean step - their sum): the health layer's "
+                "endStep (crush, injuries, falls, heading change), state swaps, the schedule\n");
     std::printf("\nlimit = tight SPH kernel loop (density + pressure force) over precomputed neighbour lists "
                 "for the same agents and threads; pairs/agent = ordered pairs within h per agent\n");
     for (const Result& r : results)
@@ -1130,11 +1140,12 @@ int main(int argc, char** argv) {
         csv << "kind,scene,agents,threads,ms_median,ms_min,ms_max,agent_steps_per_s,vmhwm_mib,vmrss_mib";
         for (std::size_t p = 0; p < Simulation::kPhases; ++p)
             csv << ",ms_" << Simulation::phaseName(static_cast<Simulation::Phase>(p));
-        csv << ",limit_ms,pairs_per_agent,extra1,extra2,state_hash\n";
+        csv << ",ms_other,limit_ms,pairs_per_agent,extra1,extra2,state_hash\n";
         for (const Result& r : results) {
             csv << r.kind << ',' << r.scene << ',' << r.n << ',' << r.threads << ',' << r.msMedian << ',' << r.msMin
                 << ',' << r.msMax << ',' << r.agentStepsPerSec << ',' << r.hwmMiB << ',' << r.rssMiB;
             for (double ms : r.phaseMs) csv << ',' << ms;
+            csv << ',' << r.otherMs;
             char hash[20];
             std::snprintf(hash, sizeof hash, "%016llx", static_cast<unsigned long long>(r.hash));
             csv << ',' << r.limitMs << ',' << r.pairsPerAgent << ',' << r.extra1 << ',' << r.extra2 << ',' << hash

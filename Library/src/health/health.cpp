@@ -180,6 +180,9 @@ void HealthLayer::init(const ScenarioSpec& spec) {
     events_ = spec.panicEvents;
     eventFired_.assign(events_.size(), 0);
     crush_ = CrushSummary{};
+    aboveByRecord_.assign(records_.size(), 0);
+    thresholdAtEnd_.clear();
+    ended_ = false;
     maxPanic_ = 0;
     falls_.clear();
     fallenNow_ = 0;
@@ -230,6 +233,13 @@ void HealthLayer::follow(AgentStore& agents) {
 
 const HealthRecord& HealthLayer::recordOf(const AgentStore& agents, std::size_t i) const {
     return records_[static_cast<std::size_t>(agents.record[i])];
+}
+
+const unsigned char* HealthLayer::crushFlags() const {
+    if (!ended_ || aboveByRecord_.size() != records_.size() || thresholdAtEnd_.size() != params_.size()) return nullptr;
+    for (std::size_t p = 0; p < params_.size(); ++p)
+        if (!(thresholdAtEnd_[p] == params_[p].crushThreshold)) return nullptr;
+    return aboveByRecord_.data();
 }
 
 namespace {
@@ -363,6 +373,10 @@ void HealthLayer::endStep(AgentStore& agents, double time, double dt) {
     const std::size_t n = agents.size();
     const std::ptrdiff_t count = static_cast<std::ptrdiff_t>(n);
     above_.resize(n);
+    aboveByRecord_.resize(records_.size(), 0);
+    thresholdAtEnd_.resize(params_.size());
+    for (std::size_t p = 0; p < params_.size(); ++p) thresholdAtEnd_[p] = params_[p].crushThreshold;
+    ended_ = true;
     if (anyCare_) fellNow_.assign(n, 0);
     // Per agent, in parallel: each iteration writes only its own record, flag and radius.
 #pragma omp parallel for schedule(static) if (parallelCheapLoop(static_cast<std::size_t>(count)))
@@ -376,6 +390,9 @@ void HealthLayer::endStep(AgentStore& agents, double time, double dt) {
         r.peakContactAccel = std::max(r.peakContactAccel, a);
         r.peakForce = std::max(r.peakForce, force);
         above_[i] = force > hp.crushThreshold ? 1 : 0;
+        // The test of crushFlags(), with the record's policy as its readers write it. Every active
+        // agent's byte is written here, after any follow() of this step: the bytes need no moving.
+        aboveByRecord_[static_cast<std::size_t>(agents.record[i])] = force > params_[r.policy].crushThreshold ? 1 : 0;
         if (above_[i]) {
             r.timeAboveThreshold += dt;
             r.dose += force * dt;

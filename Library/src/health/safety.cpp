@@ -512,12 +512,22 @@ void SafetyRecorder::recordAt(const AgentStore& a, double t, const HealthLayer* 
     // against its own threshold.
     std::vector<double> contact(health != nullptr ? f.size() : 0, 0.0);
     std::vector<std::pair<int, int>> crushCells;  // (iy, ix) of the agents above their threshold
+    // The health layer's byte per record when it has them (the test below, without reading the
+    // agent's 256-byte record).
+    const unsigned char* crushed = health != nullptr ? health->crushFlags() : nullptr;
     for (std::size_t i = 0; i < a.size() && health != nullptr; ++i) {
         const HealthLayer& h = *health;
         const std::size_t k = f.cellOfAgent[i];
         contact[k] = std::max(contact[k], a.contactAccel[i].norm());
-        const HealthRecord& r = h.recordOf(a, i);
-        if (r.lastForce > h.params(r.policy).crushThreshold) {
+        const int rec = a.record[i];
+        bool above;
+        if (crushed != nullptr && rec >= 0) {
+            above = crushed[static_cast<std::size_t>(rec)] != 0;
+        } else {
+            const HealthRecord& r = h.recordOf(a, i);
+            above = r.lastForce > h.params(r.policy).crushThreshold;
+        }
+        if (above) {
             crushCells.emplace_back(f.iy[k], f.ix[k]);
             held[Crush] = true;
             ++people[Crush];

@@ -500,6 +500,16 @@ void readBlock(LoadContext& ctx, const std::string& file, const XMLElement* el, 
     }
     const std::vector<std::string> allowed = blockChildren(kind);
     if (kind == Block::Policies) readPlugins(ctx, file, el);
+    if (kind == Block::Agents) {
+        // Room for every <Agent> at once (a 10,000-agent file would otherwise grow these arrays
+        // a dozen times, copying the specs and touching fresh pages each time).
+        std::size_t agents = 0;
+        for (const XMLElement* c = el->FirstChildElement("Agent"); c != nullptr; c = c->NextSiblingElement("Agent"))
+            ++agents;
+        ctx.spec.agents.reserve(ctx.spec.agents.size() + agents);
+        ctx.agentOrigins.reserve(ctx.agentOrigins.size() + agents);
+        ctx.policyRefs.reserve(ctx.policyRefs.size() + agents);
+    }
     for (const XMLElement* c = el->FirstChildElement(); c != nullptr; c = c->NextSiblingElement()) {
         switch (kind) {
             case Block::Policies:

@@ -182,6 +182,13 @@ public:
     void follow(AgentStore& agents);
 
     const std::vector<HealthRecord>& records() const { return records_; }
+    /// One byte per record (index AgentStore::record): 1 when the record's lastForce exceeds its
+    /// policy's crushThreshold, i.e. `r.lastForce > params(r.policy).crushThreshold`, as the last
+    /// endStep left them. nullptr when these bytes cannot stand for that test: before the first
+    /// endStep, or once some policy's crushThreshold differs from the one that endStep used (a
+    /// ramp): the caller then reads the records. Readers of every agent's crush state (the safety
+    /// recorder) touch one byte per agent instead of its 256-byte record.
+    const unsigned char* crushFlags() const;
     /// Record of active agent i (AgentStore index): records are one per spec agent, found through
     /// AgentStore::record, so agents keep theirs whatever the removals and re-orderings.
     const HealthRecord& recordOf(const AgentStore& agents, std::size_t i) const;
@@ -215,6 +222,9 @@ private:
     std::vector<double> nextPanic_;          ///< per AgentStore index (double buffer)
     double maxPanic_ = 0;                    ///< largest panic level after the last beginStep
     std::vector<unsigned char> above_;       ///< per AgentStore index: above the crush threshold this step
+    std::vector<unsigned char> aboveByRecord_;  ///< per record: lastForce > its policy's threshold (crushFlags)
+    std::vector<double> thresholdAtEnd_;     ///< per policy index: crushThreshold at the last endStep
+    bool ended_ = false;                     ///< endStep has run since init
     CrushSummary crush_;
     std::vector<FallEvent> falls_;
     int fallenNow_ = 0;                      ///< agents on the floor now
