@@ -2,6 +2,7 @@
 #include "SocialForcesAvoidance.h"
 
 #include "SocialForcesSimd.h"
+#include "crowdhealth/core/cpu_features.h"
 
 #include <algorithm>
 #include <atomic>
@@ -292,11 +293,8 @@ Vec2 pedestrianForcesWide(std::span<const NeighbourAgent> list, const PairLoop& 
 /// Whether this CPU runs pair-loop path `path` (SocialForcesAvoidance::pairLoopPath).
 bool cpuRuns(int path) {
 #ifdef CH_SF_X86
-    __builtin_cpu_init();  // a static initialiser may run before libgcc's own
-    if (path == 1) return __builtin_cpu_supports("avx2");
-    if (path == 2)
-        return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") &&
-               __builtin_cpu_supports("avx512vl");
+    if (path == 1) return cpu::hasAvx2();
+    if (path == 2) return cpu::hasAvx512();
 #endif
     return path == 0;
 }

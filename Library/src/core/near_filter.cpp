@@ -1,5 +1,6 @@
 // CrowdHealth — nearEntries: the entries of a neighbour list within a distance, as a bit mask.
 #include "crowdhealth/core/near_filter.h"
+#include "crowdhealth/core/cpu_features.h"
 
 #include <atomic>
 #include <cstring>
@@ -84,8 +85,7 @@ std::uint64_t nearAvx512(const NeighbourAgent* e, std::size_t count, double boun
 
 bool cpuRuns(int path) {
 #ifdef CH_NEAR_X86
-    __builtin_cpu_init();
-    if (path == 1) return __builtin_cpu_supports("avx512f");
+    if (path == 1) return cpu::hasAvx512();  // uses F only; the same test as the other AVX-512 loops
 #endif
     return path == 0;
 }

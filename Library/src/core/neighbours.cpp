@@ -1,5 +1,6 @@
 // CrowdHealth — per-step neighbour lists.
 #include "crowdhealth/core/neighbours.h"
+#include "crowdhealth/core/cpu_features.h"
 
 #include "crowdhealth/core/parallel.h"
 #include "crowdhealth/core/world.h"
@@ -177,11 +178,8 @@ std::size_t gatherWide(const PointGrid& grid, const Run* runs, int nRuns, const 
 /// Whether this CPU runs gather path `path`.
 bool cpuRuns(int path) {
 #ifdef CH_NL_X86
-    __builtin_cpu_init();  // a static initialiser may run before libgcc's own
-    if (path == 1) return __builtin_cpu_supports("avx2");
-    if (path == 2)
-        return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") &&
-               __builtin_cpu_supports("avx512vl");
+    if (path == 1) return cpu::hasAvx2();
+    if (path == 2) return cpu::hasAvx512();
 #endif
     return path == 0;
 }
