@@ -22,6 +22,11 @@ using namespace ch::test;
 
 namespace {
 
+/// Simulated seconds of the runs: by 20 s the crowd in front of the exit has agents above and
+/// below their threshold and has let people out (60 s took 50 s in Release, 120 s under the
+/// sanitizers, for no more coverage).
+constexpr double kEnd = 20;
+
 /// Counts the active agents whose byte disagrees with their record's test; adds to `above` those
 /// above their threshold.
 std::size_t disagreements(const Simulation& sim, const unsigned char* flags, std::size_t& above) {
@@ -45,7 +50,7 @@ BOOST_AUTO_TEST_CASE(crush_flags_are_the_records_test_for_every_agent_at_every_s
     Diagnostics diags;
     auto spec = loadScenario(std::string(CH_SOURCE_DIR) + "/Examples/future-work/injuries.xml", diags);
     BOOST_REQUIRE(spec.has_value());
-    spec->endTime = 60;
+    spec->endTime = kEnd;
     Simulation sim(*spec);
     sim.setReorderInterval(3);
     BOOST_TEST(sim.health().crushFlags() == nullptr);  // no step yet: lastForce is not a step's
@@ -98,7 +103,7 @@ BOOST_AUTO_TEST_CASE(safety_recorder_counts_the_same_crush_with_the_flags_as_wit
     Diagnostics diags;
     auto spec = loadScenario(std::string(CH_SOURCE_DIR) + "/Examples/future-work/injuries.xml", diags);
     BOOST_REQUIRE(spec.has_value());
-    spec->endTime = 60;
+    spec->endTime = kEnd;
     Simulation sim(*spec);
     SafetyRecorder flags(spec->safety), records(spec->safety);
     const std::size_t policies = sim.policies().size();
@@ -117,7 +122,7 @@ BOOST_AUTO_TEST_CASE(safety_recorder_counts_the_same_crush_with_the_flags_as_wit
         if (sim.finished()) break;
         sim.stepCoarse();
     }
-    BOOST_TEST(withheld > 500u);
+    BOOST_TEST(withheld > 150u);  // every coarse step of the 20 s
     const std::string heat = flags.heatmapCsv();
     BOOST_TEST(heat == records.heatmapCsv());
     // The case has crush cells: some seconds_above_crush_threshold (6th column) is not 0.
