@@ -260,7 +260,7 @@ template <bool Relative, class V>
 /// weight, several pairs at a time (issue 20). Pairs that exert no force (beyond range, in contact,
 /// degenerate ellipse) are masked to +0. The sum runs over the list in order, one term after the
 /// other, so it does not depend on how the lanes are grouped. The terms differ from pairForce()'s
-/// in the last bits: the exponential is simd::expNonPositive (within 5e-16 of std::exp) and the
+/// in the last bits: the exponential is simd::expNonPositive (within 3e-16 of std::exp) and the
 /// gradient takes one division instead of three (∇b = (|R| + |R−s|)/(4b|R||R−s|) ·
 /// (R|R−s| + (R−s)|R|)). With std::exp and pairForce()'s three divisions this loop gave the bits
 /// of the scalar loop it replaced, every state hash of crowdhealth-bench unchanged.

@@ -320,7 +320,7 @@ CrowdField crowdField(const AgentStore& agents, double cellSize, double R) {
         // one exponential per column and per row of its reach box (simd::expNonPositive, four at a
         // time) instead of one per cell, and a product per cell. The cells counted are those of
         // the disc test dx² + dy² ≤ reach²; the weights differ from e^{−d²/R²} in the last bits
-        // (the product of two rounded exponentials, each within 5e-16). (The query per cell with
+        // (the product of two rounded exponentials, each within 3e-16). (The query per cell with
         // glibc's exp was ~8 % of a 10k-agent social-forces run, issue 20.) With several threads,
         // each owns a band of rows and walks the agents within reach of it, in agent order: the
         // sums of a cell are the same bits for any thread count.
