@@ -42,16 +42,21 @@ std::size_t disagreements(const Simulation& sim, const unsigned char* flags, std
     return wrong;
 }
 
-}  // namespace
-
-BOOST_AUTO_TEST_CASE(crush_flags_are_the_records_test_for_every_agent_at_every_step) {
-    // future-work/injuries: a crush in front of the exit (agents above the threshold, injured,
-    // leaving through it); re-ordered every few steps (records permuted by follow()).
+/// Examples/future-work/injuries.xml, run to kEnd: a crush in front of the exit (agents above the
+/// threshold, injured, leaving through it).
+ScenarioSpec injuries() {
     Diagnostics diags;
     auto spec = loadScenario(std::string(CH_SOURCE_DIR) + "/Examples/future-work/injuries.xml", diags);
     BOOST_REQUIRE(spec.has_value());
     spec->endTime = kEnd;
-    Simulation sim(*spec);
+    return *spec;
+}
+
+}  // namespace
+
+BOOST_AUTO_TEST_CASE(crush_flags_are_the_records_test_for_every_agent_at_every_step) {
+    // Re-ordered every few steps (records permuted by follow()).
+    Simulation sim(injuries());
     sim.setReorderInterval(3);
     BOOST_TEST(sim.health().crushFlags() == nullptr);  // no step yet: lastForce is not a step's
     const std::size_t start = sim.agents().size();
@@ -76,10 +81,7 @@ BOOST_AUTO_TEST_CASE(crush_flags_are_the_records_test_for_every_agent_at_every_s
 }
 
 BOOST_AUTO_TEST_CASE(crush_flags_are_withheld_while_a_threshold_differs_from_the_last_steps) {
-    Diagnostics diags;
-    auto spec = loadScenario(std::string(CH_SOURCE_DIR) + "/Examples/future-work/injuries.xml", diags);
-    BOOST_REQUIRE(spec.has_value());
-    Simulation sim(*spec);
+    Simulation sim(injuries());
     for (int k = 0; k < 50; ++k) sim.stepCoarse();
     BOOST_REQUIRE(sim.health().crushFlags() != nullptr);
     HealthParams& hp = sim.health().params(0);
@@ -100,12 +102,9 @@ BOOST_AUTO_TEST_CASE(safety_recorder_counts_the_same_crush_with_the_flags_as_wit
     // Two recorders of the same run: one reads the flags; before the other records, every
     // threshold is raised by one ulp (the flags are withheld: it reads the records), then set
     // back before the next step. A force within that ulp of a threshold would differ; none does.
-    Diagnostics diags;
-    auto spec = loadScenario(std::string(CH_SOURCE_DIR) + "/Examples/future-work/injuries.xml", diags);
-    BOOST_REQUIRE(spec.has_value());
-    spec->endTime = kEnd;
-    Simulation sim(*spec);
-    SafetyRecorder flags(spec->safety), records(spec->safety);
+    const ScenarioSpec spec = injuries();
+    Simulation sim(spec);
+    SafetyRecorder flags(spec.safety), records(spec.safety);
     const std::size_t policies = sim.policies().size();
     std::size_t withheld = 0;
     while (true) {
