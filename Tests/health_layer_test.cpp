@@ -337,3 +337,37 @@ BOOST_AUTO_TEST_CASE(layer_is_thread_count_independent) {
     };
     BOOST_TEST(run(1) == run(2));
 }
+
+BOOST_AUTO_TEST_CASE(heading_change_is_the_mean_turn_rate_while_moving) {
+    // Agents whose velocity turns by a fixed angle every step, some left, some right, from a
+    // hair to almost a U-turn; one below the heading speed (0.1 m/s) all along. Seven agents: one
+    // block of the layer's four lanes and a partial one. The record's mean is Σ|turn| over the
+    // seconds it moved with a heading before: the turn per step over dt.
+    std::vector<AgentSpec> agents;
+    for (int k = 0; k < 7; ++k) agents.push_back(agent(k, {2.0 * k, 0}, {2.0 * k, 50}));
+    Simulation sim(fineScenario(agents, false, layer({}), 1));
+    AgentStore a = sim.agents();  // a copy whose velocities this test sets
+    HealthLayer& h = sim.health();
+    const double turn[7] = {1e-7, -0.05, 0.3, -1.2, 2.0, -3.1, 0.4};
+    const double speed[7] = {1.0, 1.3, 0.8, 1.0, 2.0, 1.1, 0.05};
+    const double dt = 0.1;
+    const int steps = 40;
+    for (int s = 0; s < steps; ++s) {
+        for (std::size_t i = 0; i < a.size(); ++i) {
+            const double angle = 0.7 * static_cast<double>(i) + s * turn[i];
+            a.vel[i] = speed[i] * Vec2(std::cos(angle), std::sin(angle));
+        }
+        h.endStep(a, (s + 1) * dt, dt);
+    }
+    for (std::size_t i = 0; i < a.size(); ++i) {
+        const HealthRecord& r = h.recordOf(a, i);
+        if (speed[i] < 0.1) {
+            BOOST_TEST(r.movingTime == 0.0);
+            BOOST_TEST(r.meanAbsHeadingChange() == 0.0);
+            continue;
+        }
+        BOOST_TEST(std::abs(r.movingTime - (steps - 1) * dt) < 1e-12);  // no turn at the first step
+        const double want = std::abs(turn[i]) / dt;
+        BOOST_TEST(std::abs(r.meanAbsHeadingChange() - want) <= 1e-9 * want + 1e-13, "agent " << i << ": " << r.meanAbsHeadingChange() << " rad/s, want " << want);
+    }
+}
