@@ -50,21 +50,26 @@ std::size_t gatherGeneric(const PointGrid& grid, const Vec2& p, double r, int se
 constexpr int kMaxRuns = 64;
 using Run = PointGrid::Run;
 
+/// The branch-free append of candidates [k0, k1) of a plane grid's order (x, y, index as
+/// PointGrid::sortedX, sortedY, order) to `list` at `count`: the scalar gather, and the tails of the
+/// vector ones.
+inline void appendScalar(const double* xs, const double* ys, const int* idx, int k0, int k1, const Vec2& p, double r2,
+                         int self, NeighbourAgent* list, std::size_t& count) {
+    for (int k = k0; k < k1; ++k) {
+        const Vec2 d = Vec2(xs[k], ys[k]) - p;
+        const int j = idx[k];
+        list[count] = NeighbourAgent{d, j};
+        count += static_cast<std::size_t>((d.squaredNorm() <= r2) & (j != self));
+    }
+}
+
 /// The same append over the runs of PointGrid::rowRuns (plane grids).
 std::size_t gatherRuns(const PointGrid& grid, const Run* runs, int nRuns, const Vec2& p, double r, int self,
                        NeighbourAgent* list) {
-    const double* xs = grid.sortedX().data();
-    const double* ys = grid.sortedY().data();
-    const int* idx = grid.order().data();
-    const double r2 = r * r;
     std::size_t count = 0;
     for (int q = 0; q < nRuns; ++q)
-        for (int k = runs[q].begin; k < runs[q].end; ++k) {
-            const Vec2 d = Vec2(xs[k], ys[k]) - p;
-            const int j = idx[k];
-            list[count] = NeighbourAgent{d, j};
-            count += static_cast<std::size_t>((d.squaredNorm() <= r2) & (j != self));
-        }
+        appendScalar(grid.sortedX().data(), grid.sortedY().data(), grid.order().data(), runs[q].begin, runs[q].end, p,
+                     r * r, self, list, count);
     return count;
 }
 
@@ -100,12 +105,7 @@ std::size_t gatherAvx2(const PointGrid& grid, const Run* runs, int nRuns, const 
                 count += ((in >> l) & 1u) & static_cast<unsigned>(j != self);
             }
         }
-        for (; k < k1; ++k) {
-            const Vec2 d = Vec2(xs[k], ys[k]) - p;
-            const int j = idx[k];
-            list[count] = NeighbourAgent{d, j};
-            count += static_cast<std::size_t>((d.squaredNorm() <= r2) & (j != self));
-        }
+        appendScalar(xs, ys, idx, k, k1, p, r2, self, list, count);
     }
     return count;
 }
