@@ -8,6 +8,7 @@
 // own (the parent never starts an OpenMP region, so forking is safe with libgomp).
 #include "crowdhealth/core/grid.h"
 #include "crowdhealth/core/kernels.h"
+#include "crowdhealth/core/neighbours.h"
 #include "crowdhealth/io/output.h"
 #include "crowdhealth/core/registry.h"
 #include "crowdhealth/health/safety.h"
@@ -17,6 +18,7 @@
 #include "crowdhealth/navigation/field.h"
 
 #include "../test_support.h"
+#include "SocialForcesAvoidance.h"
 
 #include <omp.h>
 #include <fcntl.h>
@@ -931,7 +933,10 @@ void usage() {
                  "  --umans-time T  simulated seconds of each run (default 10 = 100 steps; --quick 1)\n"
                  "  --write-umans-scene FILE  write that scene (end_time: --umans-time given before it) and stop\n"
                  "  --process-reps N  runs of the bare step and the program per scene in the process case (default 3)\n"
-                 "  --no-fork       run cases in this process (peak memory then accumulates)\n";
+                 "  --no-fork       run cases in this process (peak memory then accumulates)\n"
+                 "  --isa NAME      the hand-vectorised loops' build to run (social forces' pair loop, the neighbour-list\n"
+                 "                  gather): generic, avx2 or avx512 (default: the best this CPU runs); the results are\n"
+                 "                  the same bits. Not the side-by-side case's program, which picks its own.\n";
 }
 
 }  // namespace
@@ -959,6 +964,19 @@ int main(int argc, char** argv) {
         else if (a == "--csv") csvPath = next();
         else if (a == "--only") only = next();
         else if (a == "--no-fork") fork = false;
+        else if (a == "--isa") {
+            // The same path numbers in both: 0 generic, 1 AVX2, 2 AVX-512.
+            const std::string isa = next();
+            const int path = isa == "generic" ? 0 : isa == "avx2" ? 1 : isa == "avx512" ? 2 : -1;
+            if (path < 0) {
+                std::cerr << "--isa: expected generic, avx2 or avx512, not '" << isa << "'\n";
+                return 2;
+            }
+            if (!ch::SocialForcesAvoidance::setPairLoopPath(path) || !ch::NeighbourLists::setGatherPath(path)) {
+                std::cerr << "--isa " << isa << ": this CPU does not run it\n";
+                return 2;
+            }
+        }
         else if (a == "--umans") umansOption = next();
         else if (a == "--crowdhealth") crowdhealthOption = next();
         else if (a == "--umans-reps") umansReps = std::stoi(next());
@@ -1025,6 +1043,9 @@ int main(int argc, char** argv) {
     if (getloadavg(load, 3) < 0) load[0] = -1;
     std::printf("load average at start: %.2f %.2f %.2f on %d cores (other work on the machine skews timings)\n",
                 load[0], load[1], load[2], omp_get_num_procs());
+    static const char* const kIsa[] = {"generic", "avx2", "avx512"};
+    std::printf("hand-vectorised loops: social forces' pair loop %s, neighbour-list gather %s (--isa)\n",
+                kIsa[ch::SocialForcesAvoidance::pairLoopPath()], kIsa[ch::NeighbourLists::gatherPath()]);
     std::printf("%-14s %8s %3s  %9s  %9s  %12s  %8s  %7s  %6s  %s\n", "scene", "agents", "thr", "ms/step", "min ms",
                 "agent-step/s", "HWM MiB", "limit", "of lim", "state hash");
     if (wanted("dense"))
