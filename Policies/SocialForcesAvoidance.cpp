@@ -30,7 +30,7 @@ struct PairLoop {
 };
 
 /// Two doubles, what one 16-byte load gives.
-typedef double D2 __attribute__((vector_size(16)));
+using D2 = simd::DV2;
 
 [[gnu::always_inline]] inline D2 load2(const void* p) {
     D2 v;
@@ -101,27 +101,12 @@ struct PairConstants {
     V range, ownRadius, behind, hx, hy, cosFov, ownSx, ownSy, vOverSigma, invS;
 };
 
-/// Comparisons, selects and the exponential, by width. Two and four lanes: GCC's vector
-/// comparisons (all-ones lanes). Eight lanes: AVX-512 mask registers through GCC's builtins (GCC 12
-/// expands a comparison of 512-bit vectors that gives a vector lane by lane, with scalar compares).
-/// All are the IEEE ordered comparisons (false with NaN) and bitwise selects: the same results
-/// lane by lane.
-[[gnu::always_inline]] inline simd::IV le(simd::DV a, simd::DV b) { return a <= b; }
-[[gnu::always_inline]] inline simd::IV lt(simd::DV a, simd::DV b) { return a < b; }
-[[gnu::always_inline]] inline simd::IV allLanes(simd::DV) { return simd::IV{} - 1; }
-[[gnu::always_inline]] inline simd::DV sel(simd::IV m, simd::DV a, simd::DV b) { return simd::select(m, a, b); }
-[[gnu::always_inline]] inline simd::DV expNeg(simd::DV x) { return simd::expNonPositive(x); }
-// Two lanes (one SSE2 register per value: the generic x86-64 build).
-typedef std::int64_t I2 __attribute__((vector_size(16)));
-[[gnu::always_inline]] inline I2 le(D2 a, D2 b) { return a <= b; }
-[[gnu::always_inline]] inline I2 lt(D2 a, D2 b) { return a < b; }
-[[gnu::always_inline]] inline I2 allLanes(D2) { return I2{} - 1; }
-[[gnu::always_inline]] inline D2 sel(I2 m, D2 a, D2 b) { return simd::select(m, a, b); }
-[[gnu::always_inline]] inline D2 expNeg(D2 x) {
-    const D2 tooSmall = simd::splatAs<D2>(-708.0);
-    const I2 underflow = x < tooSmall;
-    return sel(underflow, D2{}, simd::expInRange(sel(underflow, tooSmall, x)));
-}
+// Comparisons and selects by width (two lanes: the generic x86-64 build; four: AVX2; eight:
+// AVX-512 mask registers), from crowdhealth/core/simd.h.
+using simd::allLanes;
+using simd::le;
+using simd::lt;
+using simd::sel;
 
 #if defined(__GNUC__) && !defined(__clang__)
 // No fused multiply-add contraction in the pair loop's builds (see pedestrianForcesGeneric).
@@ -133,26 +118,6 @@ typedef std::int64_t I2 __attribute__((vector_size(16)));
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 #define CH_SF_X86 1
 #define CH_SF_AVX512 __attribute__((target("avx512f,avx512dq,avx512vl")))
-// (GCC's builtins rather than the <immintrin.h> functions: those carry the AVX-512 target
-// themselves and cannot be inlined into these generic templates, which only ever end up inside
-// pedestrianForcesWide.)
-[[gnu::always_inline]] inline __mmask8 le(simd::DV8 a, simd::DV8 b) {
-    return __builtin_ia32_cmppd512_mask(a, b, _CMP_LE_OQ, 0xff, _MM_FROUND_CUR_DIRECTION);
-}
-[[gnu::always_inline]] inline __mmask8 lt(simd::DV8 a, simd::DV8 b) {
-    return __builtin_ia32_cmppd512_mask(a, b, _CMP_LT_OQ, 0xff, _MM_FROUND_CUR_DIRECTION);
-}
-[[gnu::always_inline]] inline __mmask8 allLanes(simd::DV8) { return 0xff; }
-[[gnu::always_inline]] inline simd::DV8 sel(__mmask8 m, simd::DV8 a, simd::DV8 b) {
-    return __builtin_ia32_blendmpd_512_mask(b, a, m);
-}
-/// simd::expNonPositive on eight lanes, the underflow lanes in a mask register: the same
-/// operations, so the same bits.
-[[gnu::always_inline]] inline simd::DV8 expNeg(simd::DV8 x) {
-    const simd::DV8 tooSmall = simd::splatAs<simd::DV8>(-708.0);
-    const __mmask8 underflow = lt(x, tooSmall);
-    return sel(underflow, simd::DV8{}, simd::expInRange(sel(underflow, tooSmall, x)));
-}
 #endif
 
 /// The force terms (tx, ty) of N pairs (the lanes of V), +0 in lanes where `live` is not set.
@@ -184,7 +149,7 @@ template <bool Relative, class V, class M>
     // ∇b = (|R| + |R−s|)/(4b) · (R/|R| + (R−s)/|R−s|), over one common denominator.
     const V k = sum / (c(4.0) * b * distance * magR2);
     const V gx = k * (Rx * magR2 + R2x * distance), gy = k * (Ry * magR2 + R2y * distance);
-    const V a = p.vOverSigma * expNeg(-b * p.invS);
+    const V a = p.vOverSigma * simd::expNonPositive(-b * p.invS);
     // Eq. 8: full weight when the neighbour is within the field of view.
     const M inView = le(p.cosFov * distance, p.hx * ox + p.hy * oy);
     const V w = sel(inView, one, p.behind);

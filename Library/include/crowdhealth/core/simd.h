@@ -1,8 +1,8 @@
 // CrowdHealth — small SIMD helpers (issue 20): four doubles per value with GCC/Clang vector
 // extensions (two SSE2 registers in the generic x86-64 build, one AVX2 register where the caller is
 // compiled for it), and an exponential for them (a 16-entry table and a degree-7 series). Used by
-// SocialForcesAvoidance's pair loop (Policies/SocialForcesSimd.h) and by the crowd field's Gaussian
-// weights (health/safety.cpp).
+// SocialForcesAvoidance's pair loop (Policies/SocialForcesSimd.h), the crowd field's Gaussian
+// weights (health/safety.cpp), and an atan2 for the health layer's turns (angleOf).
 // The helpers are templates over the vector type too: the pair loop also runs two lanes (one SSE2
 // register) and eight (one AVX-512 register). (Eight lanes in two AVX2 registers per value ran the
 // pair loop 2x slower: the registers spill.)
@@ -10,6 +10,11 @@
 
 #include <cstdint>
 #include <cstring>
+
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#include <immintrin.h>
+#define CH_SIMD_AVX512_MASKS 1
+#endif
 
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wpsabi"  // DV by value: every helper is inlined, no call crosses an ABI
@@ -30,6 +35,10 @@ typedef std::int64_t IV __attribute__((vector_size(8 * kLanes)));
 inline constexpr int kWideLanes = 8;
 typedef double DV8 __attribute__((vector_size(8 * kWideLanes)));
 typedef std::int64_t IV8 __attribute__((vector_size(8 * kWideLanes)));
+
+/// Two doubles (one SSE2 register): the generic x86-64 build of the pair loop.
+typedef double DV2 __attribute__((vector_size(16)));
+typedef std::int64_t IV2 __attribute__((vector_size(16)));
 
 /// The mask type of a double vector V (what its comparisons give).
 template <class V>
@@ -109,6 +118,34 @@ template <class V>
     return r;
 }
 
+/// Comparisons and selects by width, for code written once for every width (templates over V,
+/// such as SocialForcesAvoidance's pair loop and expNonPositive):
+/// le(a, b) = a ≤ b and lt(a, b) = a < b lane by lane (IEEE ordered: false with NaN), sel(m, a, b)
+/// = m ? a : b, allLanes(v) = every lane set.
+/// Two and four lanes: GCC's vector comparisons (all-ones lanes). Eight lanes: AVX-512 mask
+/// registers through GCC's builtins (GCC 12 expands a comparison of 512-bit vectors that gives a
+/// vector lane by lane, with scalar compares; the <immintrin.h> functions carry the AVX-512 target
+/// themselves and could not be inlined into these generic helpers), only in functions compiled
+/// for AVX-512. Every width gives the same results lane by lane.
+[[gnu::always_inline]] inline IV2 le(DV2 a, DV2 b) { return a <= b; }
+[[gnu::always_inline]] inline IV2 lt(DV2 a, DV2 b) { return a < b; }
+[[gnu::always_inline]] inline IV2 allLanes(DV2) { return IV2{} - 1; }
+[[gnu::always_inline]] inline DV2 sel(IV2 m, DV2 a, DV2 b) { return select(m, a, b); }
+[[gnu::always_inline]] inline IV le(DV a, DV b) { return a <= b; }
+[[gnu::always_inline]] inline IV lt(DV a, DV b) { return a < b; }
+[[gnu::always_inline]] inline IV allLanes(DV) { return IV{} - 1; }
+[[gnu::always_inline]] inline DV sel(IV m, DV a, DV b) { return select(m, a, b); }
+#ifdef CH_SIMD_AVX512_MASKS
+[[gnu::always_inline]] inline __mmask8 le(DV8 a, DV8 b) {
+    return __builtin_ia32_cmppd512_mask(a, b, _CMP_LE_OQ, 0xff, _MM_FROUND_CUR_DIRECTION);
+}
+[[gnu::always_inline]] inline __mmask8 lt(DV8 a, DV8 b) {
+    return __builtin_ia32_cmppd512_mask(a, b, _CMP_LT_OQ, 0xff, _MM_FROUND_CUR_DIRECTION);
+}
+[[gnu::always_inline]] inline __mmask8 allLanes(DV8) { return 0xff; }
+[[gnu::always_inline]] inline DV8 sel(__mmask8 m, DV8 a, DV8 b) { return __builtin_ia32_blendmpd_512_mask(b, a, m); }
+#endif
+
 /// e^x lane by lane for x in [−708, 0], no comparison: the core of expNonPositive (whose method
 /// note applies). Lanes outside that interval give unspecified values.
 template <class V>
@@ -142,8 +179,7 @@ template <class V>
 /// e^x lane by lane, for x ≤ 0 (the social-force potential's e^{−b/σ}); relative error below
 /// 3e-16 (about one ulp) against std::exp over [−708, 0] (Tests/policies_social_forces_simd_test.cpp), 0 below −708 (where
 /// e^x is below 3e-308, a subnormal or zero). NaN lanes give unspecified values (callers mask them).
-/// (For DV; with DV8 GCC 12 would compare lane by lane in scalar code: the AVX-512 pair loop
-/// clamps with a mask register and calls expInRange.)
+/// Any width (DV8 only in functions compiled for AVX-512: its comparison is a mask register).
 ///
 /// Method: x = (16m + j)·ln 2/16 + r with 16m + j = round(16x / ln 2), 0 ≤ j < 16 and
 /// |r| ≤ ln 2/32; e^x = 2^m · 2^{j/16} · e^r, with 2^{j/16} from a 16-entry table, e^r − 1 by its
@@ -152,10 +188,11 @@ template <class V>
 /// the series to r¹², ~4 ulp: a quarter more operations; with the table the AVX-512 pair loop's
 /// exponential takes 19 % less time, the SSE2 one 10 % less, the AVX2 one 3 % more, since AVX2
 /// has no permute across four doubles from a register pair and loads the entries one by one.)
-[[gnu::always_inline]] inline DV expNonPositive(DV x) {
-    const DV tooSmall = splat(-708.0);
-    const IV underflow = x < tooSmall;
-    return select(underflow, splat(0.0), expInRange(select(underflow, tooSmall, x)));
+template <class V>
+[[gnu::always_inline]] inline V expNonPositive(V x) {
+    const V tooSmall = splatAs<V>(-708.0);
+    const auto underflow = lt(x, tooSmall);
+    return sel(underflow, V{}, expInRange(sel(underflow, tooSmall, x)));
 }
 
 /// atan(k/8) for k = 0 … 8, each the double nearest to it: the table of angleOf.
@@ -172,10 +209,10 @@ inline constexpr double kAtanEighths[9] = {
 };
 
 /// atan2(y, x) lane by lane for y ≥ 0: the angle in [0, π] of the vector (x, y) — and so, with
-/// y = |sin θ|, x = cos θ, the size of a turn θ. Relative error below 4e-16 (under two ulp)
+/// y = |sin θ|, x = cos θ, the size of a turn θ. Relative error below 5e-16 (about two ulp)
 /// against std::atan2 (Tests/core_simd_angle_test.cpp). Lanes with x = y = 0 give 0 (std::atan2
-/// gives π for x = −0); NaN lanes give unspecified values. For DV and narrower (see
-/// expNonPositive on DV8).
+/// gives π for x = −0); NaN lanes give unspecified values. For DV and narrower: its comparisons are
+/// GCC's vector ones, which GCC 12 does lane by lane on DV8.
 ///
 /// Method: u = min(y, |x|)/max(y, |x|) ∈ [0, 1]; with c = k/8 the nearest eighth,
 /// atan u = atan c + atan v, v = (u − c)/(1 + uc), computed from y and |x| themselves as
