@@ -26,9 +26,9 @@ namespace {
 /// Loads the scenario and builds the simulation. On any problem prints every diagnostic to
 /// stderr and returns nullptr; nothing has been simulated or written by then.
 std::unique_ptr<ch::Simulation> loadAndBuild(const Options& o) {
-    const std::optional<ch::ScenarioSpec> spec = loadSpec(o, o.seed, true);
+    std::optional<ch::ScenarioSpec> spec = loadSpec(o, o.seed, true);
     if (!spec) return nullptr;
-    return buildSimulation(*spec, o);
+    return buildSimulation(std::move(*spec), o);  // the simulation keeps the spec: no copy
 }
 
 }  // namespace
