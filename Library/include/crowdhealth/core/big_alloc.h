@@ -27,6 +27,16 @@ void bigFree(void* p, std::size_t bytes) noexcept;
 /// Whether bigAllocate(bytes) maps huge pages for this size on this platform.
 bool bigAllocateUsesHugePages(std::size_t bytes);
 
+/// For a process about to make ~`bytes` of small allocations (parsing a large scenario: its
+/// XML tree is ~7 times the file's size), on Linux with glibc: grows the malloc heap now by
+/// `bytes` (rounded to 2 MiB, at most 512 MiB), marks that untouched part for huge pages, and
+/// keeps it (M_TOP_PAD) and blocks up to half of it (M_MMAP_THRESHOLD) in the heap, so that
+/// memory freed after loading is reused by the simulation rather than returned and faulted in
+/// again. Once per process, and only from 4 MiB (a small scene keeps the default heap); false
+/// when nothing was done. Process-wide: for a program that runs one scenario (the CLI's run);
+/// the price is up to ~2 MiB more resident memory than with small pages.
+bool heapOnHugePages(std::size_t bytes);
+
 /// A standard allocator over bigAllocate, for containers that hold a large buffer for the whole
 /// run (std::vector<T, BigAllocator<T>>). Stateless: all instances are equal.
 template <class T>
