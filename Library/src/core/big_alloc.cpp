@@ -83,18 +83,18 @@ bool heapOnHugePages(std::size_t bytes) {
     if (mallopt(M_TOP_PAD, static_cast<int>(pad)) != 1) return false;
     mallopt(M_MMAP_THRESHOLD, static_cast<int>(std::min<std::size_t>(pad / 2, std::size_t{32} << 20)));
     const std::uintptr_t before = reinterpret_cast<std::uintptr_t>(sbrk(0));
-    // Small blocks until malloc extends the heap (by what it needs plus `pad`), then freed again:
-    // the top of the heap then keeps `pad` bytes no page of which has been touched (free() trims
-    // only beyond M_TOP_PAD). Their aligned part is marked for huge pages.
-    constexpr std::size_t kProbe = std::size_t{16} << 10;
-    std::vector<void*> blocks;
-    blocks.reserve(64);
-    while (reinterpret_cast<std::uintptr_t>(sbrk(0)) == before && blocks.size() < 64)
-        blocks.push_back(std::malloc(kProbe));
-    for (void* b : blocks) std::free(b);
+    // Blocks of kProbe until malloc extends the heap (by what it needs plus `pad`), then freed
+    // again: the top of the heap keeps `pad` bytes no page of which has been touched (free()
+    // trims only beyond M_TOP_PAD). Their aligned part is marked for huge pages.
+    constexpr std::size_t kProbe = std::size_t{64} << 10;
+    std::vector<void*> probes;
+    probes.reserve(pad / 2 / kProbe);
+    while (reinterpret_cast<std::uintptr_t>(sbrk(0)) == before && probes.size() < pad / 2 / kProbe)
+        probes.push_back(std::malloc(kProbe));
+    for (void* p : probes) std::free(p);
     const std::uintptr_t after = reinterpret_cast<std::uintptr_t>(sbrk(0));
-    // Past the pages the probe's headers touched, to whole huge pages.
-    const std::uintptr_t lo = (before + 8 * kProbe + kHugePage - 1) & ~(std::uintptr_t{kHugePage} - 1);
+    // Past the pages the probe's and the top's headers touched, to whole huge pages.
+    const std::uintptr_t lo = (before + 2 * kProbe + kHugePage - 1) & ~(std::uintptr_t{kHugePage} - 1);
     const std::uintptr_t hi = after & ~(std::uintptr_t{kHugePage} - 1);
     if (hi <= lo) return false;  // no heap from brk (e.g. glibc fell back to mmap)
     return madvise(reinterpret_cast<void*>(lo), hi - lo, MADV_HUGEPAGE) == 0;
