@@ -74,7 +74,7 @@ void bigFree(void* p, std::size_t bytes) noexcept {
 
 bool heapOnHugePages(std::size_t bytes) {
 #ifdef CH_BIG_ALLOC_HEAP
-    static bool done = false;
+    static bool done = false;  // called from the main thread before any other allocates
     if (done || bytes < kHeapOnHugePagesFrom) return false;
     done = true;
     const std::size_t pad = roundUp(std::min(bytes, kHeapPadMax), kHugePage);
