@@ -8,6 +8,7 @@
 #include "signals.h"
 
 #include <crowdhealth/io/output.h>
+#include <crowdhealth/core/big_alloc.h>
 #include <crowdhealth/core/simulation.h>
 
 #include <algorithm>
@@ -26,9 +27,15 @@ namespace {
 /// Loads the scenario and builds the simulation. On any problem prints every diagnostic to
 /// stderr and returns nullptr; nothing has been simulated or written by then.
 std::unique_ptr<ch::Simulation> loadAndBuild(const Options& o) {
-    const std::optional<ch::ScenarioSpec> spec = loadSpec(o, o.seed, true);
+    // A large scene's XML tree and specs are many small blocks: heap on huge pages (issue 20;
+    // a 1.9-MB, 10k-agent file: 4,500 fewer page faults). The tree takes ~7 times the file's
+    // size, then the specs and the simulation reuse it; 12 times measured best.
+    std::error_code ec;
+    if (const std::uintmax_t size = fs::file_size(o.input, ec); !ec)
+        ch::heapOnHugePages(static_cast<std::size_t>(std::min<std::uintmax_t>(size, std::uintmax_t{1} << 30)) * 12);
+    std::optional<ch::ScenarioSpec> spec = loadSpec(o, o.seed, true);
     if (!spec) return nullptr;
-    return buildSimulation(*spec, o);
+    return buildSimulation(std::move(*spec), o);  // the simulation keeps the spec: no copy
 }
 
 }  // namespace

@@ -71,11 +71,11 @@ std::optional<ch::ScenarioSpec> loadSpec(const Options& o, std::optional<std::ui
     return spec;
 }
 
-std::unique_ptr<ch::Simulation> buildSimulation(const ch::ScenarioSpec& spec, const Options& o) {
-    return buildSimulation(spec, o, std::cerr);
+std::unique_ptr<ch::Simulation> buildSimulation(ch::ScenarioSpec spec, const Options& o) {
+    return buildSimulation(std::move(spec), o, std::cerr);
 }
 
-std::unique_ptr<ch::Simulation> buildSimulation(const ch::ScenarioSpec& spec, const Options& o, std::ostream& err) {
+std::unique_ptr<ch::Simulation> buildSimulation(ch::ScenarioSpec spec, const Options& o, std::ostream& err) {
     // A large venue takes seconds to prepare its paths (≈ 0.2 µs per cell and field): say so first.
     if (const auto& nav = spec.venue.navigation; nav && !o.quiet && spec.world.type == ch::WorldType::Planar) {
         const double h = nav->grid.cellSize;
@@ -88,7 +88,7 @@ std::unique_ptr<ch::Simulation> buildSimulation(const ch::ScenarioSpec& spec, co
     }
     try {
         // Throws for names the registry does not know (e.g. a policy file from a newer version).
-        return std::make_unique<ch::Simulation>(spec);
+        return std::make_unique<ch::Simulation>(std::move(spec));
     } catch (const std::exception& e) {
         err << o.input << ": error: " << e.what() << "\n"
                   << "crowdhealth: the scenario cannot be built; nothing was simulated or written\n";

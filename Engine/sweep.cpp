@@ -459,9 +459,9 @@ static SweepResult executeSweepRun(const SweepSettings& s, const SweepRun& run, 
     const auto start = std::chrono::steady_clock::now();
     try {
         if (s.debugFailRun && *s.debugFailRun == run.id) throw std::runtime_error("failed on purpose (--debug-fail-run)");
-        const std::optional<ch::ScenarioSpec> spec = runSpec(s, run, false);
+        std::optional<ch::ScenarioSpec> spec = runSpec(s, run, false);
         if (!spec) throw std::runtime_error("the scenario could not be loaded");
-        ch::Simulation sim(*spec);
+        ch::Simulation sim(std::move(*spec));  // the simulation keeps the spec: no copy
         const Options o = runOptions(s, s.keepRuns);
         const std::optional<RunPlan> plan = planRun(o, sim.spec(), false);  // checked on the first run
         if (!plan) throw std::runtime_error("the run cannot be planned");

@@ -283,3 +283,32 @@ BOOST_AUTO_TEST_CASE(row_runs_are_what_forEachCandidate_scans) {
     std::size_t total = 0;
     BOOST_TEST(!g.rowRuns(p, 2.0, few, 2, nRuns, total));
 }
+
+BOOST_AUTO_TEST_CASE(lists_past_the_first_block_are_exact_and_survive_a_rebuild) {
+    // ~1.4 million entries (34 MB): the first block of 65,536 entries, then the 2-MiB-multiple
+    // blocks of bigAllocate (core/big_alloc.h), each list contiguous in one of them.
+    WorldSpec ws;
+    const World world(ws, {});
+    const Crowd c = crowd(3000, 24, 16, 5);
+    const std::vector<double> range = {5.0, 3.0};
+    const auto first = checkedLists(c, world, 2.5, range);
+    std::size_t entries = 0;
+    for (const auto& l : first) entries += l.size();
+    BOOST_TEST(entries > 1000000u);
+    // Rebuilding into the same buffers (kept from step to step) gives the same lists.
+    PointGrid grid;
+    grid.build(c.pos, 2.5);
+    NeighbourLists lists;
+    lists.build(c.pos, grid, world, c.group, range);
+    lists.build(c.pos, grid, world, c.group, range);
+    for (std::size_t i = 0; i < c.pos.size(); ++i) {
+        std::vector<std::pair<int, Vec2>> got;
+        for (const NeighbourAgent& nb : lists.agents(i)) got.emplace_back(nb.index, Vec2(nb.offset));
+        std::sort(got.begin(), got.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+        BOOST_TEST_REQUIRE(got.size() == first[i].size());
+        for (std::size_t k = 0; k < got.size(); ++k) {
+            BOOST_TEST(got[k].first == first[i][k].first);
+            BOOST_TEST((got[k].second == first[i][k].second));
+        }
+    }
+}

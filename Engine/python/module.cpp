@@ -67,7 +67,7 @@ public:
             options_.input = *name;
             spec->sourceFile = *name;
         }
-        sim_ = chcli::buildSimulation(*spec, options_, err);
+        sim_ = chcli::buildSimulation(std::move(*spec), options_, err);
         if (!sim_) throw ScenarioError(trimmed(err.str()));
         plan_ = chcli::planRun(options_, sim_->spec(), true, err);
         if (!plan_) throw ScenarioError(trimmed(err.str()));

@@ -429,7 +429,7 @@ bool SafetyRecorder::cover(int x0, int y0, int x1, int y1) {
         if (area(px0, py0, px1, py1) <= kMaxGridCells) nx0 = px0, ny0 = py0, nx1 = px1, ny1 = py1;
     }
     const int wx = nx1 - nx0 + 1, wy = ny1 - ny0 + 1;
-    std::vector<Cell> grid(static_cast<std::size_t>(wx) * static_cast<std::size_t>(wy));
+    Grid grid(static_cast<std::size_t>(wx) * static_cast<std::size_t>(wy));
     std::vector<unsigned char> present(grid.size(), 0);
     for (int y = by0_; y <= by1_; ++y)
         for (int x = bx0_; x <= bx1_; ++x) {
