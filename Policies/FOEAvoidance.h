@@ -36,6 +36,7 @@ class FOEAvoidance : public Component {
 public:
     explicit FOEAvoidance(const ParamSet& params);
     static ComponentInfo Info();
+    bool readsStepLists() const override { return false; }  ///< only q.agents, q.segments
     double cost(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const override;
     Vec2 gradient(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const override;
 

@@ -13,6 +13,7 @@ class GoalReachingForce : public ForceComponent {
 public:
     explicit GoalReachingForce(const ParamSet& params);
     static ComponentInfo Info();
+    bool readsStepLists() const override { return false; }  ///< only q.agents, q.segments
     Vec2 acceleration(const AgentQuery& q, const StepContext& ctx) const override;
 
 private:

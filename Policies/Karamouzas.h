@@ -65,6 +65,7 @@ public:
     explicit Karamouzas(const ParamSet& params);
     static ComponentInfo Info();
 
+    bool readsStepLists() const override { return false; }  ///< only q.agents, q.segments
     double cost(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const override;
 
     /// Largest admissible deviation from v_pref (rad) when the first collision at v_pref is ttc s away.

@@ -37,6 +37,7 @@ public:
     explicit Moussaid(const ParamSet& params);
     static ComponentInfo Info();
 
+    bool readsStepLists() const override { return false; }  ///< only q.agents, q.segments
     double cost(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const override;
 
     /// f(α): distance (m) to the first collision walking along unit direction `dir` at `speed`,

@@ -106,6 +106,7 @@ public:
     explicit ORCA(const ParamSet& params);
     static ComponentInfo Info();
 
+    bool readsStepLists() const override { return false; }  ///< only q.agents, q.segments
     double cost(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const override;
     Vec2 gradient(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const override;
     std::optional<Vec2> globalMinimum(const AgentQuery& q, const StepContext& ctx) const override;

@@ -44,6 +44,7 @@ public:
     explicit PLEdestrians(const ParamSet& params);
     static ComponentInfo Info();
 
+    bool readsStepLists() const override { return false; }  ///< only q.agents, q.segments
     double cost(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const override;
     /// Analytic gradient of the effort; zero where v is inadmissible (the cost is +∞ there).
     Vec2 gradient(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const override;

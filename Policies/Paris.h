@@ -65,6 +65,7 @@ class Paris : public Component {
 public:
     explicit Paris(const ParamSet& params);
     static ComponentInfo Info();
+    bool readsStepLists() const override { return false; }  ///< only q.agents, q.segments
     double cost(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const override;
 
     /// A closed interval of speeds (m/s); empty when hi < lo. hi may be +∞.

@@ -34,6 +34,7 @@ class PowerLaw : public ForceComponent {
 public:
     explicit PowerLaw(const ParamSet& params);
     static ComponentInfo Info();
+    bool readsStepLists() const override { return false; }  ///< only q.agents, q.segments
     Vec2 acceleration(const AgentQuery& q, const StepContext& ctx) const override;
 
     /// E (m²/s² per unit mass) for relative position x, relative velocity v and radius sum R;

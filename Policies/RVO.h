@@ -34,6 +34,7 @@ public:
     explicit RVO(const ParamSet& params);
     static ComponentInfo Info();
     /// |v_pref − v'| for an admissible speed (the collision term is ≥ 0), the cost itself above max_speed.
+    bool readsStepLists() const override { return false; }  ///< only q.agents, q.segments
     double costLowerBound(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const override;
     double cost(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const override;
 

@@ -26,6 +26,7 @@ class SocialForcesAvoidance : public ForceComponent {
 public:
     explicit SocialForcesAvoidance(const ParamSet& params);
     static ComponentInfo Info();
+    bool readsStepLists() const override { return false; }  ///< only q.agents, q.segments
     void prepare(const StepContext& ctx) override;
     Vec2 acceleration(const AgentQuery& q, const StepContext& ctx) const override;
 

@@ -33,6 +33,7 @@ class SocialGroups : public ForceComponent {
 public:
     explicit SocialGroups(const ParamSet& params);
     static ComponentInfo Info();
+    bool readsStepLists() const override { return false; }  ///< only q.agents, q.segments
     void prepare(const StepContext& ctx) override;
     Vec2 acceleration(const AgentQuery& q, const StepContext& ctx) const override;
 

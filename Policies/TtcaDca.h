@@ -52,6 +52,7 @@ class TtcaDca : public Component {
 public:
     explicit TtcaDca(const ParamSet& params);
     static ComponentInfo Info();
+    bool readsStepLists() const override { return false; }  ///< only q.agents, q.segments
     double cost(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const override;
     Vec2 gradient(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const override;
 

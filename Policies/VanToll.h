@@ -29,6 +29,7 @@ class VanToll : public Component {
 public:
     explicit VanToll(const ParamSet& params);
     static ComponentInfo Info();
+    bool readsStepLists() const override { return false; }  ///< only q.agents, q.segments
     double cost(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const override;
 
     /// Time (s) until the agent moving at v first touches a neighbour or wall in range (kInf if never).

@@ -312,3 +312,79 @@ BOOST_AUTO_TEST_CASE(lists_past_the_first_block_are_exact_and_survive_a_rebuild)
         }
     }
 }
+
+namespace {
+
+/// Agent i's lists from a streaming NeighbourLists (bind, then gather agent by agent with one
+/// scratch that grows as it goes), as listsOf gives them and the segments.
+std::pair<std::vector<std::vector<std::pair<int, Vec2>>>, std::vector<std::vector<int>>>
+gatheredLists(const Crowd& c, const PointGrid& grid, const World& world, const std::vector<double>& range) {
+    NeighbourLists lists;
+    lists.bind(c.pos, grid, world, c.group, range);
+    BOOST_TEST(lists.streaming());
+    BOOST_TEST(lists.size() == 0u);  // nothing stored: StepContext's helpers query the grid
+    NeighbourLists::Scratch scratch;
+    std::vector<std::vector<std::pair<int, Vec2>>> agents(c.pos.size());
+    std::vector<std::vector<int>> segments(c.pos.size());
+    for (std::size_t i = 0; i < c.pos.size(); ++i) {
+        std::span<const NeighbourAgent> a;
+        std::span<const int> s;
+        lists.gather(i, scratch, a, s);
+        for (const NeighbourAgent& nb : a) agents[i].emplace_back(nb.index, Vec2(nb.offset));
+        segments[i].assign(s.begin(), s.end());
+    }
+    return {agents, segments};
+}
+
+}  // namespace
+
+// Simulation::setStoreNeighbourLists(false): each agent's lists gathered just before its calls
+// must be those build() stores, entry by entry, offsets to the bit, in the same order (sums over
+// them then give the same bits), and the same wall segments: for short ranges from the step grid,
+// for long ones from the lists' own finer grid, on a torus, with every gather path.
+BOOST_AUTO_TEST_CASE(gathering_agent_by_agent_gives_the_stored_lists) {
+    const int original = NeighbourLists::gatherPath();
+    ObstacleSpec wall;
+    wall.points = {{-2, -2}, {2, -2}, {2, -1.5}, {-2, -1.5}};
+    const World plane(WorldSpec{}, {wall});
+    WorldSpec ts;
+    ts.type = WorldType::Toric;
+    ts.width = 9;
+    ts.height = 7;
+    const World torus(ts, {});
+    std::size_t compared = 0, withWalls = 0;
+    for (int path = 0; path <= 2; ++path) {
+        if (!NeighbourLists::setGatherPath(path)) continue;
+        for (const double r : {1.0, 5.0}) {
+            const Crowd c = edgyCrowd(r < 2 ? 1500 : 800, 24, 16, r, 0.5 * r, r < 2, 91);
+            const std::vector<double> range = {r, 0.6 * r};
+            for (const World* world : {&plane, &torus}) {
+                if (world->periodic() && r > 2) continue;  // the 9 × 7 torus holds no 5-m disc
+                const Crowd& cc = world->periodic() ? crowd(250, ts.width, ts.height, 5) : c;
+                PointGrid grid;
+                grid.build(cc.pos, 0.5 * r, world->periodic(), ts.width, ts.height);
+                NeighbourLists stored;
+                stored.build(cc.pos, grid, *world, cc.group, range);
+                BOOST_TEST(!stored.streaming());
+                const auto [agents, segments] = gatheredLists(cc, grid, *world, range);
+                const auto reference = listsOf(stored);
+                BOOST_TEST_REQUIRE(agents.size() == reference.size());
+                for (std::size_t i = 0; i < agents.size(); ++i) {
+                    BOOST_TEST_REQUIRE(agents[i].size() == reference[i].size(), "path " << path << " agent " << i);
+                    for (std::size_t k = 0; k < agents[i].size(); ++k) {
+                        BOOST_TEST(agents[i][k].first == reference[i][k].first);
+                        BOOST_TEST(std::memcmp(agents[i][k].second.data(), reference[i][k].second.data(),
+                                               2 * sizeof(double)) == 0);
+                    }
+                    const auto s = stored.segments(i);
+                    BOOST_TEST(segments[i] == std::vector<int>(s.begin(), s.end()));
+                    withWalls += segments[i].empty() ? 0 : 1;
+                    compared += agents[i].size();
+                }
+            }
+        }
+    }
+    BOOST_TEST(compared > 100000u);
+    BOOST_TEST(withWalls > 0u);
+    NeighbourLists::setGatherPath(original);
+}

@@ -51,6 +51,10 @@ using Clock = std::chrono::steady_clock;
 
 namespace {
 
+/// --stored-lists: every step stores all neighbour lists even where no component needs them
+/// stored (Simulation::setStoreNeighbourLists), to compare with gathering them agent by agent.
+bool gStoredLists = false;
+
 // ---------------------------------------------------------------------------------------------
 // Scenes
 
@@ -334,6 +338,7 @@ Result runSimCase(const Case& c) {
     // The spec is moved into the Simulation: one copy of a million agent specs.
     auto sim = std::make_unique<Simulation>(std::move(spec));
     if (c.kind.find("unordered") != std::string::npos) sim->setReorderInterval(0);
+    if (gStoredLists) sim->setStoreNeighbourLists(true);
     sim->setThreads(c.threads);
     for (int k = 0; k < c.warmup; ++k) sim->stepCoarse();
     resetPhases(*sim);
@@ -833,6 +838,7 @@ Result runBareCpu(const std::string& scene, std::size_t n, int steps) {
     const double c0 = processCpuSeconds();
     auto sim = std::make_unique<Simulation>(scene == "dense-sph" ? denseSph(n) : socialForces(n));
     sim->setThreads(1);
+    if (gStoredLists) sim->setStoreNeighbourLists(true);
     const double c1 = processCpuSeconds();
     for (int k = 0; k < steps; ++k) sim->stepCoarse();
     const double c2 = processCpuSeconds();
@@ -936,7 +942,9 @@ void usage() {
                  "  --no-fork       run cases in this process (peak memory then accumulates)\n"
                  "  --isa NAME      the hand-vectorised loops' build to run (social forces' pair loop, the neighbour-list\n"
                  "                  gather): generic, avx2 or avx512 (default: the best this CPU runs); the results are\n"
-                 "                  the same bits. Not the side-by-side case's program, which picks its own.\n";
+                 "                  the same bits. Not the side-by-side case's program, which picks its own.\n"
+                 "  --stored-lists  store every neighbour list at each step even where only the per-agent calls read\n"
+                 "                  them (by default those lists are gathered agent by agent; the same bits)\n";
 }
 
 }  // namespace
@@ -964,6 +972,7 @@ int main(int argc, char** argv) {
         else if (a == "--csv") csvPath = next();
         else if (a == "--only") only = next();
         else if (a == "--no-fork") fork = false;
+        else if (a == "--stored-lists") gStoredLists = true;
         else if (a == "--isa") {
             // The same path numbers in both: 0 generic, 1 AVX2, 2 AVX-512.
             const std::string isa = next();
@@ -1046,6 +1055,8 @@ int main(int argc, char** argv) {
     static const char* const kIsa[] = {"generic", "avx2", "avx512"};
     std::printf("hand-vectorised loops: social forces' pair loop %s, neighbour-list gather %s (--isa)\n",
                 kIsa[ch::SocialForcesAvoidance::pairLoopPath()], kIsa[ch::NeighbourLists::gatherPath()]);
+    std::printf("neighbour lists: %s\n", gStoredLists ? "stored at every step (--stored-lists)"
+                                                      : "gathered agent by agent where no component reads them stored");
     std::printf("%-14s %8s %3s  %9s  %9s  %12s  %8s  %7s  %6s  %s\n", "scene", "agents", "thr", "ms/step", "min ms",
                 "agent-step/s", "HWM MiB", "limit", "of lim", "state hash");
     if (wanted("dense"))

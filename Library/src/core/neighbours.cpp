@@ -215,9 +215,9 @@ NeighbourLists::Slice NeighbourLists::slice(int thread, const Place& at, std::si
                  static_cast<std::uint32_t>(at.begin), static_cast<std::uint32_t>(count)};
 }
 
-void NeighbourLists::build(const std::vector<Vec2>& positions, const PointGrid& stepGrid, const World& world,
-                           const std::vector<int>& group, const std::vector<double>& rangeOfGroup) {
-    const std::size_t n = positions.size();
+const PointGrid& NeighbourLists::prepareGrid(const std::vector<Vec2>& positions, const PointGrid& stepGrid,
+                                             const World& world, const std::vector<int>& group,
+                                             const std::vector<double>& rangeOfGroup) {
     // Long ranges (social forces: 5 m) search a finer grid of their own. With cells as wide as
     // the range, the query disc's bounding box covers 3 × 3 cells, (2r + c)² = 9r² of area for a
     // disc of πr²: 2.9 candidates per neighbour, each written to the list (branch-free append).
@@ -227,12 +227,34 @@ void NeighbourLists::build(const std::vector<Vec2>& positions, const PointGrid& 
     // contact: ~1 m) keep the step's grid and its order; so do periodic worlds.
     double reach = 0;
     for (double r : rangeOfGroup) reach = std::max(reach, r);
-    const PointGrid* gridUsed = &stepGrid;
-    if (!world.periodic() && reach >= kFineGridFrom && n > 0) {
+    group_ = &group;
+    rangeOfGroup_ = rangeOfGroup;
+    if (!world.periodic() && reach >= kFineGridFrom && !positions.empty()) {
         fine_.build(positions, reach / kFineGridCells);
-        gridUsed = &fine_;
+        return fine_;
     }
-    const PointGrid& grid = *gridUsed;
+    return stepGrid;
+}
+
+template <class Open>
+std::size_t NeighbourLists::gatherAgents(const PointGrid& grid, const Vec2& p, double r, int self, Open&& open) const {
+    // The runs of order() to scan (plane grids, at most kMaxRuns rows), found once for both the
+    // room to ask for (every candidate plus what a vector gather may write past its last entry)
+    // and the gather; else (a torus, a huge radius) forEachCandidate.
+    Run runs[kMaxRuns];
+    int nRuns = 0;
+    std::size_t candidates = 0;
+    if (!grid.periodic() && grid.rowRuns(p, r, runs, kMaxRuns, nRuns, candidates))
+        return gatherRunsOn(gGatherPath.load(std::memory_order_relaxed), grid, runs, nRuns, p, r, self,
+                            open(candidates + kGatherSlack));
+    return gatherGeneric(grid, p, r, self, open(grid.candidateCount(p, r)));
+}
+
+void NeighbourLists::build(const std::vector<Vec2>& positions, const PointGrid& stepGrid, const World& world,
+                           const std::vector<int>& group, const std::vector<double>& rangeOfGroup) {
+    const std::size_t n = positions.size();
+    streaming_ = false;
+    const PointGrid& grid = prepareGrid(positions, stepGrid, world, group, rangeOfGroup);
     const int threads = std::max(1, omp_get_max_threads());
     if (agentBuffers_.size() < static_cast<std::size_t>(threads)) {
         agentBuffers_.resize(static_cast<std::size_t>(threads));
@@ -241,10 +263,6 @@ void NeighbourLists::build(const std::vector<Vec2>& positions, const PointGrid& 
     }
     agentSlice_.resize(n);
     segmentSlice_.resize(n);
-    group_ = &group;
-    rangeOfGroup_ = rangeOfGroup;
-    const bool periodic = grid.periodic();
-    const int path = gGatherPath.load(std::memory_order_relaxed);
 
 #pragma omp parallel num_threads(threads) if (parallelNeighbourLoop(n))
     {
@@ -257,23 +275,10 @@ void NeighbourLists::build(const std::vector<Vec2>& positions, const PointGrid& 
 #pragma omp for schedule(static)
         for (std::ptrdiff_t ii = 0; ii < static_cast<std::ptrdiff_t>(n); ++ii) {
             const std::size_t i = static_cast<std::size_t>(ii);
-            const int self = static_cast<int>(i);
             const double r = rangeOfGroup[static_cast<std::size_t>(group[i])];
             Place at;
-            // The runs of order() to scan (plane grids, at most kMaxRuns rows), found once for both
-            // the room to ask for (every candidate plus what a vector gather may write past its
-            // last entry) and the gather; else (a torus, a huge radius) forEachCandidate.
-            Run runs[kMaxRuns];
-            int nRuns = 0;
-            std::size_t candidates = 0;
-            std::size_t count;
-            if (!periodic && grid.rowRuns(positions[i], r, runs, kMaxRuns, nRuns, candidates)) {
-                NeighbourAgent* list = out.open(at, candidates + kGatherSlack);
-                count = gatherRunsOn(path, grid, runs, nRuns, positions[i], r, self, list);
-            } else {
-                NeighbourAgent* list = out.open(at, grid.candidateCount(positions[i], r));
-                count = gatherGeneric(grid, positions[i], r, self, list);
-            }
+            const std::size_t count = gatherAgents(grid, positions[i], r, static_cast<int>(i),
+                                                   [&](std::size_t most) { return out.open(at, most); });
             out.close(at, count);
             agentSlice_[i] = slice(t, at, count);
             world.segmentsNear(positions[i], r, near);
@@ -283,6 +288,31 @@ void NeighbourLists::build(const std::vector<Vec2>& positions, const PointGrid& 
             segmentSlice_[i] = slice(t, sat, near.size());
         }
     }
+}
+
+void NeighbourLists::bind(const std::vector<Vec2>& positions, const PointGrid& stepGrid, const World& world,
+                          const std::vector<int>& group, const std::vector<double>& rangeOfGroup) {
+    gridUsed_ = &prepareGrid(positions, stepGrid, world, group, rangeOfGroup);
+    positions_ = &positions;
+    world_ = &world;
+    streaming_ = true;
+    // No stored lists (size() = 0) until the next build(); the buffers keep their blocks.
+    agentSlice_.clear();
+    segmentSlice_.clear();
+}
+
+void NeighbourLists::gather(std::size_t i, Scratch& scratch, std::span<const NeighbourAgent>& agents,
+                            std::span<const int>& segments) const {
+    const Vec2& p = (*positions_)[i];
+    const double r = rangeOfGroup_[static_cast<std::size_t>((*group_)[i])];
+    const std::size_t count = gatherAgents(*gridUsed_, p, r, static_cast<int>(i), [&](std::size_t most) {
+        // Grows to the largest list of the run; resize() writes only the new entries.
+        if (scratch.agents.size() < most) scratch.agents.resize(std::max(most, 2 * scratch.agents.size()));
+        return scratch.agents.data();
+    });
+    agents = {scratch.agents.data(), count};
+    world_->segmentsNear(p, r, scratch.segments);
+    segments = {scratch.segments.data(), scratch.segments.size()};
 }
 
 }  // namespace ch

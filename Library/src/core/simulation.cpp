@@ -62,6 +62,12 @@ Simulation::Simulation(ScenarioSpec specIn)
         maxRange_ = std::max(maxRange_, r);
     }
     gridCell_ = stepGridCell(maxRange_);
+    // Lists are stored only when some component reads them through its StepContext.
+    needStoredLists_ = false;
+    for (const Policy& p : policies_)
+        for (const PolicyStep& s : p.steps())
+            for (const auto& e : s.components()) needStoredLists_ = needStoredLists_ || e.component->readsStepLists();
+    storeLists_ = needStoredLists_;
 
     pending_.resize(spec.agents.size());
     for (std::size_t k = 0; k < pending_.size(); ++k) pending_[k] = k;
@@ -149,8 +155,12 @@ void Simulation::stepCoarse() {
     for (int k = 0; k < finePerCoarse_; ++k) stepFine();
 }
 
-void Simulation::gatherQuery(std::size_t i, AgentQuery& q) const {
+void Simulation::gatherQuery(std::size_t i, AgentQuery& q, NeighbourLists::Scratch& scratch) const {
     setQueryAgent(q, agents_, i);
+    if (lists_.streaming()) {
+        lists_.gather(i, scratch, q.agents, q.segments);
+        return;
+    }
     q.agents = lists_.agents(i);
     q.segments = lists_.segments(i);
 }
@@ -208,10 +218,14 @@ void Simulation::stepFine() {
 
     timed(Phase::Neighbours, [&] {
         // One search per step: the grid, then every agent's neighbour list within its policy's
-        // range, which SPH density, contact and the per-agent calls all read.
+        // range, which SPH density, contact and the per-agent calls all read; or, when only the
+        // per-agent calls read them, the lists are gathered in evaluateAgents, agent by agent.
         grid_.build(agents_.pos, gridCell_, world_.periodic(), spec_.world.width, spec_.world.height);
         if (reorderInterval_ > 0 && fineSteps_ % static_cast<std::uint64_t>(reorderInterval_) == 0) reorderAgents();
-        lists_.build(agents_.pos, grid_, world_, agents_.policy, policyRange_);
+        if (storeLists_)
+            lists_.build(agents_.pos, grid_, world_, agents_.policy, policyRange_);
+        else
+            lists_.bind(agents_.pos, grid_, world_, agents_.policy, policyRange_);
     });
     timed(Phase::Preferred, [&] {
         // CrowdHealth: panic update and the speeds in effect, then the preferred velocities, then
@@ -390,14 +404,17 @@ void Simulation::evaluateAgents(bool coarseBoundary) {
     // never touch, and with none finite the bound is −inf (the filter then keeps every entry).
     double maxRadius = -std::numeric_limits<double>::infinity();
     for (const double r : agents_.radius) maxRadius = r > maxRadius ? r : maxRadius;
+    if (listScratch_.size() < static_cast<std::size_t>(omp_get_max_threads()))
+        listScratch_.resize(static_cast<std::size_t>(omp_get_max_threads()));
 #pragma omp parallel if (parallelNeighbourLoop(n))
     {
         AgentQuery q;  // per thread, on its own stack (no shared cache lines); its spans allocate nothing
+        NeighbourLists::Scratch& scratch = listScratch_[static_cast<std::size_t>(omp_get_thread_num())];
 #pragma omp for schedule(static)
         for (std::ptrdiff_t ii = 0; ii < static_cast<std::ptrdiff_t>(n); ++ii) {
             const std::size_t i = static_cast<std::size_t>(ii);
             const Policy& policy = policies_[agents_.policy[i]];
-            gatherQuery(i, q);
+            gatherQuery(i, q, scratch);
 
             Vec2 fine(0, 0);
             Vec2 reported(0, 0);  // contact accelerations reported by components (contactField)

@@ -134,6 +134,15 @@ public:
     /// Once per step, before the per-agent calls (see the step contract).
     virtual void prepare(const StepContext& ctx) { (void)ctx; }
 
+    /// Whether the component reads the step's neighbour lists through its StepContext (`lists`,
+    /// forEachNeighbour, segmentsNear: in prepare(), or for agents other than the query's), and
+    /// not only the query agent's own lists (AgentQuery::agents, segments) in its per-agent
+    /// calls. When no component of the scenario does, the simulation gathers each agent's lists
+    /// just before that agent's calls, into a buffer that stays in cache, instead of storing
+    /// every list of the step (the same lists, entry by entry; issue 20). True unless a component
+    /// says otherwise, so a plugin written before this keeps the stored lists.
+    virtual bool readsStepLists() const { return true; }
+
     /// Cost of candidate velocity v (m/s) for the query agent; lower is better.
     virtual double cost(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const = 0;
     /// A value cost(v, q, ctx) is never below, computed in floating point so that it really is

@@ -58,6 +58,26 @@ public:
     /// Cells per list radius in that grid.
     static constexpr double kFineGridCells = 4.0;
 
+    /// Streaming instead of storing (issue 20): sets up for gather() over `positions` (which must
+    /// stay in place until the lists are next built or bound) without building any list, for a
+    /// step whose lists are each read only while their own agent is evaluated. Every list a
+    /// gather() returns is the one build() would store, entry by entry and in the same order. Until
+    /// the next build(), size() is 0, so StepContext's helpers query the grid instead.
+    void bind(const std::vector<Vec2>& positions, const PointGrid& grid, const World& world,
+              const std::vector<int>& group, const std::vector<double>& rangeOfGroup);
+    /// Whether the lists are bound for gather() (the last call was bind()) rather than stored.
+    bool streaming() const { return streaming_; }
+    /// A thread's buffers for gather(): one agent's lists, reused from agent to agent (a few
+    /// kilobytes that stay in cache, where the stored lists of 10k agents at 5 m are ~19 MB).
+    struct Scratch {
+        std::vector<NeighbourAgent> agents;
+        std::vector<int> segments;
+    };
+    /// After bind(): agent i's lists into `scratch`, as spans valid until its next gather().
+    void gather(std::size_t i, Scratch& scratch, std::span<const NeighbourAgent>& agents,
+                std::span<const int>& segments) const;
+
+    /// Agents with stored lists: those of the last build(); 0 after bind().
     std::size_t size() const { return agentSlice_.size(); }
     /// The radius (m) agent i's lists were gathered with.
     double radius(std::size_t i) const { return rangeOfGroup_[static_cast<std::size_t>((*group_)[i])]; }
@@ -145,6 +165,14 @@ private:
         std::uint32_t thread, block, begin, count;
     };
     static Slice slice(int thread, const Place& at, std::size_t count);
+    /// The grid the lists come from (fine_ for long ranges, else `stepGrid`), after building fine_
+    /// when needed; also keeps group and rangeOfGroup.
+    const PointGrid& prepareGrid(const std::vector<Vec2>& positions, const PointGrid& stepGrid, const World& world,
+                                 const std::vector<int>& group, const std::vector<double>& rangeOfGroup);
+    /// Agent i's agent list, written where open(most) says (room for `most` entries); returns its
+    /// length. The one gather of build() and gather().
+    template <class Open>
+    std::size_t gatherAgents(const PointGrid& grid, const Vec2& p, double r, int self, Open&& open) const;
 
     std::vector<BlockBuffer<NeighbourAgent>> agentBuffers_;  ///< one per thread
     std::vector<BlockBuffer<int>> segmentBuffers_;           ///< one per thread
@@ -153,6 +181,11 @@ private:
     PointGrid fine_;  ///< the finer grid for long ranges (kept: no allocation per step)
     const std::vector<int>* group_ = nullptr;
     std::vector<double> rangeOfGroup_;
+    // bind(): what gather() reads.
+    bool streaming_ = false;
+    const std::vector<Vec2>* positions_ = nullptr;
+    const PointGrid* gridUsed_ = nullptr;
+    const World* world_ = nullptr;
 };
 
 }  // namespace ch

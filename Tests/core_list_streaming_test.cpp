@@ -1,0 +1,110 @@
+// CrowdHealth tests — neighbour lists gathered agent by agent (issue 20). When no component of a
+// scenario reads the neighbour lists through its StepContext (Component::readsStepLists), the
+// simulation gathers each agent's lists just before its policy's calls instead of storing every
+// list of the step. That must change nothing: the same positions and velocities, to the bit, as
+// with the lists stored, for policies of different ranges, walls, UMANS' contact, 1 and 2
+// threads; and a scenario with a component that does read stored lists (SPH, ContactForces, a
+// plugin that does not say) must keep them stored.
+#define BOOST_TEST_MODULE core_list_streaming
+#include <boost/test/unit_test.hpp>
+
+#include "test_support.h"
+
+#include <cstring>
+#include <random>
+
+using namespace ch;
+
+namespace {
+
+/// 600 agents in two counter-flowing groups through a corridor with a pillar: policy 0 social
+/// forces (range 5 m) + goal reaching, policy 1 the time-to-collision cost TtcaDca (range 3 m,
+/// sampling), both with UMANS' contact; `extra` is added to policy 0 when given.
+ScenarioSpec corridor(const ComponentSpec* extra = nullptr) {
+    std::mt19937_64 rng(11);
+    std::uniform_real_distribution<double> jitter(-0.1, 0.1), radius(0.2, 0.3);
+    std::vector<AgentSpec> agents;
+    for (int k = 0; k < 600; ++k) {
+        const int row = k / 30, col = k % 30;
+        const bool right = row % 2 == 0;
+        const Vec2 p(0.7 * col + jitter(rng) + (right ? 0.0 : 4.0), -6.0 + 0.6 * row + jitter(rng));
+        agents.push_back(test::agent(static_cast<AgentId>(k), p, Vec2(right ? 60.0 : -40.0, p.y()), radius(rng), 1.3,
+                                     1.6, k % 3 == 0 ? 1 : 0));
+    }
+    std::vector<ComponentSpec> sf = {test::component("SocialForcesAvoidance", {{"range", 5.0}}),
+                                     test::component("GoalReachingForce")};
+    if (extra != nullptr) sf.push_back(*extra);
+    SamplingSpec sampling;
+    ScenarioSpec spec = test::scenario(
+        agents,
+        {test::policy(0, OptimisationMethod::Gradient, sf, 0.5),
+         test::policy(1, OptimisationMethod::Sampling, {test::component("TtcaDca", {{"range", 3.0}})}, 0.0, sampling)},
+        0.1, 60.0);
+    ObstacleSpec pillar;
+    pillar.points = {{10, -1}, {11, -1}, {11, 1}, {10, 1}};
+    ObstacleSpec north, south;
+    north.points = {{-5, 6.5}, {40, 6.5}, {40, 7}, {-5, 7}};
+    south.points = {{-5, -7}, {40, -7}, {40, -6.5}, {-5, -6.5}};
+    spec.obstacles = {pillar, north, south};
+    return spec;
+}
+
+bool sameBits(const std::vector<Vec2>& a, const std::vector<Vec2>& b) {
+    return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(Vec2)) == 0;
+}
+
+}  // namespace
+
+BOOST_AUTO_TEST_CASE(gathered_lists_give_the_bits_of_stored_ones) {
+    for (const int threads : {1, 2}) {
+        Simulation gathered(corridor()), stored(corridor());
+        BOOST_TEST(!gathered.storesNeighbourLists());  // every component reads only its query's lists
+        stored.setStoreNeighbourLists(true);
+        BOOST_TEST(stored.storesNeighbourLists());
+        gathered.setThreads(threads);
+        stored.setThreads(threads);
+        double contact = 0;
+        for (int step = 0; step < 40; ++step) {
+            gathered.stepCoarse();
+            stored.stepCoarse();
+            const AgentStore &a = gathered.agents(), &b = stored.agents();
+            BOOST_TEST_REQUIRE(a.size() == b.size());
+            BOOST_TEST_REQUIRE(sameBits(a.pos, b.pos), "positions differ at step " << step << ", " << threads << " threads");
+            BOOST_TEST_REQUIRE(sameBits(a.vel, b.vel), "velocities differ at step " << step << ", " << threads << " threads");
+            BOOST_TEST_REQUIRE(sameBits(a.contactAccel, b.contactAccel));
+            for (const Vec2& c : a.contactAccel) contact = std::max(contact, c.norm());
+        }
+        // The crowd does interact: agents moved, and some touched (UMANS' contact read the lists).
+        BOOST_TEST(contact > 0.0);
+        BOOST_TEST(gathered.agents().pos[0].x() > 1.0);
+    }
+}
+
+BOOST_AUTO_TEST_CASE(a_component_reading_stored_lists_keeps_them) {
+    // ContactForces reads other agents' neighbourhoods in prepare(), through its StepContext.
+    const ComponentSpec contact = test::component("ContactForces");
+    Simulation sim(corridor(&contact));
+    BOOST_TEST(sim.storesNeighbourLists());
+    sim.setStoreNeighbourLists(false);  // ignored: the component needs them
+    BOOST_TEST(sim.storesNeighbourLists());
+    sim.stepCoarse();
+    BOOST_TEST(sim.agents().size() == 600u);
+}
+
+namespace {
+
+/// A component that does not say how it reads the lists (as a plugin written before
+/// readsStepLists): the simulation must assume it reads them stored.
+class Silent : public ForceComponent {
+public:
+    Vec2 acceleration(const AgentQuery&, const StepContext&) const override { return Vec2(0, 0); }
+};
+
+}  // namespace
+
+BOOST_AUTO_TEST_CASE(a_component_that_does_not_say_is_taken_to_read_stored_lists) {
+    BOOST_TEST(Silent().readsStepLists());
+    for (const char* name : {"SPH", "ContactForces"}) BOOST_TEST(test::make(name)->readsStepLists(), name);
+    for (const char* name : {"SocialForcesAvoidance", "GoalReachingForce", "TtcaDca", "ORCA", "RVO", "PowerLaw"})
+        BOOST_TEST(!test::make(name)->readsStepLists(), name);
+}
