@@ -388,3 +388,38 @@ BOOST_AUTO_TEST_CASE(gathering_agent_by_agent_gives_the_stored_lists) {
     BOOST_TEST(withWalls > 0u);
     NeighbourLists::setGatherPath(original);
 }
+
+// The vector gathers write whole blocks of candidates past a list's last entry (up to the slack
+// NeighbourLists asks room for). Where every candidate is kept — agents stacked on one point —
+// the list reaches the end of the room it asked for, so a slack too small writes past a fresh
+// scratch of exactly that size: AddressSanitizer (scripts/test.sh --sanitize) reports it. In
+// every build the stacked lists must hold every other agent, in both modes, on every path.
+BOOST_AUTO_TEST_CASE(a_gather_of_stacked_agents_keeps_them_all_within_its_buffer) {
+    const int original = NeighbourLists::gatherPath();
+    const World world(WorldSpec{}, {});
+    for (const int stacked : {1, 7, 8, 9, 63, 64, 65, 200}) {
+        Crowd c;
+        for (int k = 0; k < stacked; ++k) c.pos.emplace_back(3.0, 4.0);
+        c.pos.emplace_back(40.0, 40.0);  // far away: the grid spans more than one cell
+        c.group.assign(c.pos.size(), 0);
+        for (int path = 0; path <= 2; ++path) {
+            if (!NeighbourLists::setGatherPath(path)) continue;
+            for (const double r : {1.0, 5.0}) {
+                PointGrid grid;
+                grid.build(c.pos, 0.5 * r);
+                NeighbourLists lists;
+                lists.bind(c.pos, grid, world, c.group, {r});
+                NeighbourLists::Scratch scratch;  // fresh: sized by this one gather
+                std::span<const NeighbourAgent> a;
+                std::span<const int> s;
+                lists.gather(0, scratch, a, s);
+                BOOST_TEST(a.size() == static_cast<std::size_t>(stacked - 1), "path " << path << " r " << r);
+                NeighbourLists stored;
+                stored.build(c.pos, grid, world, c.group, {r});
+                for (std::size_t i = 0; i < static_cast<std::size_t>(stacked); ++i)
+                    BOOST_TEST(stored.agents(i).size() == static_cast<std::size_t>(stacked - 1));
+            }
+        }
+    }
+    NeighbourLists::setGatherPath(original);
+}
