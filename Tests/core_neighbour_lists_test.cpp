@@ -173,6 +173,16 @@ std::vector<std::vector<std::pair<int, Vec2>>> listsOf(const NeighbourLists& lis
     return out;
 }
 
+/// One agent's two lists, equal entry by entry: the same indices and the offsets to the bit.
+void sameEntries(const std::vector<std::pair<int, Vec2>>& mine, const std::vector<std::pair<int, Vec2>>& reference,
+                 int path, std::size_t agent) {
+    BOOST_TEST_REQUIRE(mine.size() == reference.size(), "path " << path << " agent " << agent);
+    for (std::size_t k = 0; k < mine.size(); ++k) {
+        BOOST_TEST(mine[k].first == reference[k].first);
+        BOOST_TEST(std::memcmp(mine[k].second.data(), reference[k].second.data(), 2 * sizeof(double)) == 0);
+    }
+}
+
 }  // namespace
 
 BOOST_AUTO_TEST_CASE(every_gather_path_gives_the_same_lists) {
@@ -219,14 +229,7 @@ BOOST_AUTO_TEST_CASE(every_gather_path_gives_the_same_lists) {
                 lists.build(c.pos, grid, world, c.group, range);
                 const auto mine = listsOf(lists);
                 BOOST_TEST_REQUIRE(mine.size() == reference.size());
-                for (std::size_t i = 0; i < mine.size(); ++i) {
-                    BOOST_TEST_REQUIRE(mine[i].size() == reference[i].size(), "path " << path << " agent " << i);
-                    for (std::size_t k = 0; k < mine[i].size(); ++k) {
-                        BOOST_TEST(mine[i][k].first == reference[i][k].first);
-                        BOOST_TEST(std::memcmp(mine[i][k].second.data(), reference[i][k].second.data(),
-                                               2 * sizeof(double)) == 0);
-                    }
-                }
+                for (std::size_t i = 0; i < mine.size(); ++i) sameEntries(mine[i], reference[i], path, i);
             }
         }
     }
@@ -370,12 +373,7 @@ BOOST_AUTO_TEST_CASE(gathering_agent_by_agent_gives_the_stored_lists) {
                 const auto reference = listsOf(stored);
                 BOOST_TEST_REQUIRE(agents.size() == reference.size());
                 for (std::size_t i = 0; i < agents.size(); ++i) {
-                    BOOST_TEST_REQUIRE(agents[i].size() == reference[i].size(), "path " << path << " agent " << i);
-                    for (std::size_t k = 0; k < agents[i].size(); ++k) {
-                        BOOST_TEST(agents[i][k].first == reference[i][k].first);
-                        BOOST_TEST(std::memcmp(agents[i][k].second.data(), reference[i][k].second.data(),
-                                               2 * sizeof(double)) == 0);
-                    }
+                    sameEntries(agents[i], reference[i], path, i);
                     const auto s = stored.segments(i);
                     BOOST_TEST(segments[i] == std::vector<int>(s.begin(), s.end()));
                     withWalls += segments[i].empty() ? 0 : 1;
