@@ -1,6 +1,7 @@
 // CrowdHealth — SPH crowds (van Toll et al. 2021), see SPH.h.
 #include "SPH.h"
 
+#include "PairSums.h"
 #include "WallArea.h"
 
 #include "crowdhealth/core/kernels.h"
@@ -192,22 +193,25 @@ Vec2 SPH::acceleration(const AgentQuery& q, const StepContext& ctx) const {
     const double rhoI = density_[i], pI = pressure_[i];
     const bool pressure = pI > 0;  // absolute pressure: only a compressed agent is pushed
 
+    // The pairs (PairSums.h: eight at a time where the CPU has AVX-512, the same bits either way).
     Vec2 a(0, 0);
-    const double h2 = h * h;
-    for (const NeighbourAgent& nb : q.agents) {
-        const double d2 = nb.distanceSquared();
-        if (d2 >= h2) continue;
-        const double r = std::sqrt(d2);  // = nb.distance()
-        if (r < 1e-12) continue;
-        const std::size_t j = static_cast<std::size_t>(nb.index);
-        const double rhoJ = density_[j];
-        if (!(rhoJ > 0)) continue;
-        if (pressure) {
-            const Vec2 away = -nb.offset / r;  // from j to i
-            a += A.mass[j] * (pI + pressure_[j]) / (2.0 * rhoJ) * K.spikyGradMagnitude(r) * away;
-        }
-        if (viscosity_ > 0)
-            a += viscosity_ * A.mass[j] / rhoJ * K.viscosityLaplacian(r) * (A.vel[j] - q.velocity);
+    if (pressure || viscosity_ > 0) {
+        pairs::SphInput in;
+        in.entries = q.agents.data();
+        in.count = q.agents.size();
+        in.mass = A.mass.data();
+        in.density = density_.data();
+        in.pressure = pressure_.data();
+        in.velocity = A.vel.data();
+        in.h = h;
+        in.h2 = h * h;
+        in.cS = K.cS;
+        in.cV = K.cV;
+        in.pressureI = pI;
+        in.pushes = pressure;
+        in.viscosity = viscosity_;
+        in.velocityI = q.velocity;
+        a = pairs::sphForce(in);
     }
 
     if (!analyticWalls() && !wallDensity_.empty()) {

@@ -8,6 +8,7 @@
 // own (the parent never starts an OpenMP region, so forking is safe with libgomp).
 #include "crowdhealth/core/grid.h"
 #include "crowdhealth/core/kernels.h"
+#include "crowdhealth/core/near_filter.h"
 #include "crowdhealth/core/neighbours.h"
 #include "crowdhealth/io/output.h"
 #include "crowdhealth/core/registry.h"
@@ -18,6 +19,7 @@
 #include "crowdhealth/navigation/field.h"
 
 #include "../test_support.h"
+#include "PairSums.h"
 #include "SocialForcesAvoidance.h"
 
 #include <omp.h>
@@ -981,7 +983,10 @@ int main(int argc, char** argv) {
                 std::cerr << "--isa: expected generic, avx2 or avx512, not '" << isa << "'\n";
                 return 2;
             }
-            if (!ch::SocialForcesAvoidance::setPairLoopPath(path) || !ch::NeighbourLists::setGatherPath(path)) {
+            // The dense pair sums and UMANS' contact filter have no AVX2 build: generic below AVX-512.
+            const int wide = path == 2 ? 1 : 0;
+            if (!ch::SocialForcesAvoidance::setPairLoopPath(path) || !ch::NeighbourLists::setGatherPath(path) ||
+                !ch::pairs::setPath(wide) || !ch::setNearEntriesPath(wide)) {
                 std::cerr << "--isa " << isa << ": this CPU does not run it\n";
                 return 2;
             }
@@ -1053,8 +1058,10 @@ int main(int argc, char** argv) {
     std::printf("load average at start: %.2f %.2f %.2f on %d cores (other work on the machine skews timings)\n",
                 load[0], load[1], load[2], omp_get_num_procs());
     static const char* const kIsa[] = {"generic", "avx2", "avx512"};
-    std::printf("hand-vectorised loops: social forces' pair loop %s, neighbour-list gather %s (--isa)\n",
-                kIsa[ch::SocialForcesAvoidance::pairLoopPath()], kIsa[ch::NeighbourLists::gatherPath()]);
+    std::printf("hand-vectorised loops: social forces' pair loop %s, neighbour-list gather %s, SPH and contact pair "
+                "sums %s, UMANS' contact filter %s (--isa)\n",
+                kIsa[ch::SocialForcesAvoidance::pairLoopPath()], kIsa[ch::NeighbourLists::gatherPath()],
+                kIsa[2 * ch::pairs::path()], kIsa[2 * ch::nearEntriesPath()]);
     std::printf("neighbour lists: %s\n", gStoredLists ? "stored at every step (--stored-lists)"
                                                       : "gathered agent by agent where no component reads them stored");
     std::printf("%-14s %8s %3s  %9s  %9s  %12s  %8s  %7s  %6s  %s\n", "scene", "agents", "thr", "ms/step", "min ms",

@@ -1,6 +1,7 @@
 // CrowdHealth — which vector instruction sets this CPU runs, for the hand-vectorised loops that
 // pick a build when the program starts (the social-force pair loop, the neighbour-list gather,
-// UMANS' contact filter; docs/performance.md, issue 20). Safe to call from static initialisers.
+// UMANS' contact filter, SPH's and ContactForces' pair sums; docs/performance.md, issue 20). Safe
+// to call from static initialisers.
 #pragma once
 
 namespace ch::cpu {

@@ -1,0 +1,227 @@
+// CrowdHealth — the dense crowd's pair sums, scalar and AVX-512 builds (see PairSums.h).
+#include "PairSums.h"
+
+#include "crowdhealth/core/cpu_features.h"
+
+#include <atomic>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+
+#include "crowdhealth/core/list_lanes.h"
+#ifdef CH_LIST_LANES
+#define CH_PAIRS_X86 1
+#define CH_PAIRS_AVX512 __attribute__((target("avx512f,avx512dq,avx512vl")))
+#endif
+
+#if defined(__GNUC__) && !defined(__clang__)
+// Every product and sum rounded on its own in both builds (no fused multiply-add), so that a
+// pair's term has the same bits whichever build computed it.
+#define CH_PAIRS_NO_CONTRACT __attribute__((optimize("fp-contract=off")))
+#else
+#define CH_PAIRS_NO_CONTRACT
+#endif
+
+namespace ch::pairs {
+
+namespace {
+
+static_assert(sizeof(Vec2) == 16, "the AVX-512 build gathers v_j as words 2j and 2j + 1");
+
+/// SPH, the reference: one pair after the other, each skipped or added as the model says.
+CH_PAIRS_NO_CONTRACT
+Vec2 sphScalar(const SphInput& in) {
+    double ax = 0, ay = 0;
+    for (std::size_t k = 0; k < in.count; ++k) {
+        const NeighbourAgent& nb = in.entries[k];
+        const double x = nb.offset.x(), y = nb.offset.y();
+        const double d2 = x * x + y * y;  // NeighbourAgent::distanceSquared()
+        if (d2 >= in.h2) continue;
+        const double r = std::sqrt(d2);
+        if (r < 1e-12) continue;
+        const std::size_t j = static_cast<std::size_t>(nb.index);
+        const double rhoJ = in.density[j];
+        if (!(rhoJ > 0)) continue;
+        if (in.pushes) {
+            const double spiky = r >= in.h ? 0.0 : in.cS * (in.h - r) * (in.h - r);
+            const double s = in.mass[j] * (in.pressureI + in.pressure[j]) / (2.0 * rhoJ) * spiky;
+            ax += s * (-x / r);
+            ay += s * (-y / r);
+        }
+        if (in.viscosity > 0) {
+            const double laplacian = r >= in.h ? 0.0 : in.cV * (in.h - r);
+            const double t = in.viscosity * in.mass[j] / rhoJ * laplacian;
+            ax += t * (in.velocity[j].x() - in.velocityI.x());
+            ay += t * (in.velocity[j].y() - in.velocityI.y());
+        }
+    }
+    return {ax, ay};
+}
+
+/// ContactForces' agent springs, the reference (ContactForces::prepare's loop over the list).
+CH_PAIRS_NO_CONTRACT
+Vec2 contactScalar(const ContactInput& in) {
+    double ax = 0, ay = 0;
+    for (std::size_t k = 0; k < in.count; ++k) {
+        const NeighbourAgent& nb = in.entries[k];
+        const double x = nb.offset.x(), y = nb.offset.y();
+        const double d2 = x * x + y * y;
+        if (!(d2 <= in.reach2)) continue;
+        const double reach = in.radiusI + in.radius[nb.index];
+        if (d2 >= reach * reach) continue;  // no overlap: no square root needed
+        const double r = std::sqrt(d2);
+        const double overlap = reach - r;
+        if (overlap > 0 && r > 1e-12) {
+            const double f = in.stiffness * overlap;
+            ax += f * (-x / r);
+            ay += f * (-y / r);
+        }
+    }
+    return {ax, ay};
+}
+
+#ifdef CH_PAIRS_X86
+/// SPH, eight entries per step (crowdhealth/core/list_lanes.h): the neighbours' columns gathered,
+/// every term computed in the lanes with the scalar build's expression, and the lanes that fail a
+/// test set to +0. The terms are then added in list order. Adding +0 leaves a sum unchanged bit for bit: the sums
+/// start at +0 and a sum of doubles rounded to nearest is never −0 unless both addends are, so
+/// no sum here is ever −0 and s + 0 = s.
+CH_PAIRS_AVX512 CH_PAIRS_NO_CONTRACT
+Vec2 sphAvx512(const SphInput& in) {
+    const __m512d h = _mm512_set1_pd(in.h), h2 = _mm512_set1_pd(in.h2);
+    const __m512d cS = _mm512_set1_pd(in.cS), cV = _mm512_set1_pd(in.cV);
+    const __m512d pI = _mm512_set1_pd(in.pressureI), two = _mm512_set1_pd(2.0);
+    const __m512d mu = _mm512_set1_pd(in.viscosity), tiny = _mm512_set1_pd(1e-12);
+    const __m512d vix = _mm512_set1_pd(in.velocityI.x()), viy = _mm512_set1_pd(in.velocityI.y());
+    const __m512d zero = _mm512_setzero_pd();
+    const __m512i signBit = _mm512_set1_epi64(static_cast<long long>(0x8000000000000000ULL));
+    const bool viscous = in.viscosity > 0;
+    const double* velocity = reinterpret_cast<const double*>(in.velocity);
+    alignas(64) double tx[8], ty[8], ux[8], uy[8];
+    double ax = 0, ay = 0;
+    for (std::size_t k = 0; k < in.count; k += 8) {
+        const std::size_t left = in.count - k < 8 ? in.count - k : 8;
+        const lanes::Entries8 g = lanes::load8<true>(in.entries + k, left);
+        const __mmask8 live = g.live;
+        const __m512d x = g.x, y = g.y;
+        const __m256i j = g.index;
+        const __m512d d2 = _mm512_add_pd(_mm512_mul_pd(x, x), _mm512_mul_pd(y, y));
+        // The columns of every listed neighbour (masked by `live` only, so that the loads do
+        // not wait for the square root or for each other).
+        const __m512d rhoJ = _mm512_mask_i32gather_pd(zero, live, j, in.density, 8);
+        const __m512d mJ = _mm512_mask_i32gather_pd(zero, live, j, in.mass, 8);
+        // The scalar build's tests, NaN included: skip when d2 ≥ h², r < 1e-12 or !(ρ_j > 0).
+        __mmask8 use = live & _mm512_cmp_pd_mask(d2, h2, _CMP_NGE_UQ);
+        const __m512d r = _mm512_maskz_sqrt_pd(0xff, d2);
+        use &= _mm512_cmp_pd_mask(r, tiny, _CMP_NLT_UQ);
+        use &= _mm512_cmp_pd_mask(rhoJ, zero, _CMP_GT_OQ);
+        const __mmask8 inside = _mm512_cmp_pd_mask(r, h, _CMP_NGE_UQ);  // the kernels' r >= h ? 0
+        const __m512d hr = _mm512_sub_pd(h, r);
+        if (in.pushes) {
+            const __m512d pJ = _mm512_mask_i32gather_pd(zero, live, j, in.pressure, 8);
+            const __m512d spiky = _mm512_maskz_mul_pd(inside, _mm512_mul_pd(cS, hr), hr);
+            const __m512d s = _mm512_mul_pd(_mm512_div_pd(_mm512_mul_pd(mJ, _mm512_add_pd(pI, pJ)), _mm512_mul_pd(two, rhoJ)),
+                                            spiky);
+            const __m512d nx = _mm512_castsi512_pd(_mm512_xor_si512(_mm512_castpd_si512(x), signBit));
+            const __m512d ny = _mm512_castsi512_pd(_mm512_xor_si512(_mm512_castpd_si512(y), signBit));
+            _mm512_store_pd(tx, _mm512_maskz_mul_pd(use, s, _mm512_div_pd(nx, r)));
+            _mm512_store_pd(ty, _mm512_maskz_mul_pd(use, s, _mm512_div_pd(ny, r)));
+        }
+        if (viscous) {
+            const __m256i j2 = _mm256_add_epi32(j, j);
+            const __m512d vx = _mm512_mask_i32gather_pd(zero, live, j2, velocity, 8);
+            const __m512d vy = _mm512_mask_i32gather_pd(zero, live, j2, velocity + 1, 8);
+            const __m512d laplacian = _mm512_maskz_mul_pd(inside, cV, hr);
+            const __m512d t = _mm512_mul_pd(_mm512_div_pd(_mm512_mul_pd(mu, mJ), rhoJ), laplacian);
+            _mm512_store_pd(ux, _mm512_maskz_mul_pd(use, t, _mm512_sub_pd(vx, vix)));
+            _mm512_store_pd(uy, _mm512_maskz_mul_pd(use, t, _mm512_sub_pd(vy, viy)));
+        }
+        // In list order, as the scalar build adds them (lanes past `left` are +0 and skipped).
+        if (in.pushes && viscous) {
+            for (std::size_t l = 0; l < left; ++l) {
+                ax += tx[l];
+                ay += ty[l];
+                ax += ux[l];
+                ay += uy[l];
+            }
+        } else if (in.pushes) {
+            for (std::size_t l = 0; l < left; ++l) {
+                ax += tx[l];
+                ay += ty[l];
+            }
+        } else if (viscous) {
+            for (std::size_t l = 0; l < left; ++l) {
+                ax += ux[l];
+                ay += uy[l];
+            }
+        }
+    }
+    return {ax, ay};
+}
+/// ContactForces' agent springs, eight entries per step, the terms added in list order as above.
+CH_PAIRS_AVX512 CH_PAIRS_NO_CONTRACT
+Vec2 contactAvx512(const ContactInput& in) {
+    const __m512d reach2 = _mm512_set1_pd(in.reach2), own = _mm512_set1_pd(in.radiusI);
+    const __m512d stiffness = _mm512_set1_pd(in.stiffness), tiny = _mm512_set1_pd(1e-12);
+    const __m512d zero = _mm512_setzero_pd();
+    const __m512i signBit = _mm512_set1_epi64(static_cast<long long>(0x8000000000000000ULL));
+    alignas(64) double tx[8], ty[8];
+    double ax = 0, ay = 0;
+    for (std::size_t k = 0; k < in.count; k += 8) {
+        const std::size_t left = in.count - k < 8 ? in.count - k : 8;
+        const lanes::Entries8 g = lanes::load8<true>(in.entries + k, left);
+        const __m512d d2 = _mm512_add_pd(_mm512_mul_pd(g.x, g.x), _mm512_mul_pd(g.y, g.y));
+        const __m512d reach = _mm512_add_pd(own, _mm512_mask_i32gather_pd(zero, g.live, g.index, in.radius, 8));
+        __mmask8 use = g.live & _mm512_cmp_pd_mask(d2, reach2, _CMP_LE_OQ);
+        use &= _mm512_cmp_pd_mask(d2, _mm512_mul_pd(reach, reach), _CMP_NGE_UQ);
+        const __m512d r = _mm512_maskz_sqrt_pd(0xff, d2);
+        const __m512d overlap = _mm512_sub_pd(reach, r);
+        use &= _mm512_cmp_pd_mask(overlap, zero, _CMP_GT_OQ) & _mm512_cmp_pd_mask(r, tiny, _CMP_GT_OQ);
+        const __m512d f = _mm512_mul_pd(stiffness, overlap);
+        const __m512d nx = _mm512_castsi512_pd(_mm512_xor_si512(_mm512_castpd_si512(g.x), signBit));
+        const __m512d ny = _mm512_castsi512_pd(_mm512_xor_si512(_mm512_castpd_si512(g.y), signBit));
+        _mm512_store_pd(tx, _mm512_maskz_mul_pd(use, f, _mm512_div_pd(nx, r)));
+        _mm512_store_pd(ty, _mm512_maskz_mul_pd(use, f, _mm512_div_pd(ny, r)));
+        for (std::size_t l = 0; l < left; ++l) {
+            ax += tx[l];
+            ay += ty[l];
+        }
+    }
+    return {ax, ay};
+}
+#endif
+
+bool cpuRuns(int path) {
+#ifdef CH_PAIRS_X86
+    if (path == 1) return cpu::hasAvx512();
+#endif
+    return path == 0;
+}
+
+std::atomic<int> gPath{cpuRuns(1) ? 1 : 0};
+
+}  // namespace
+
+Vec2 sphForce(const SphInput& in) {
+#ifdef CH_PAIRS_X86
+    if (gPath.load(std::memory_order_relaxed) == 1) return sphAvx512(in);
+#endif
+    return sphScalar(in);
+}
+
+Vec2 contactForce(const ContactInput& in) {
+#ifdef CH_PAIRS_X86
+    if (gPath.load(std::memory_order_relaxed) == 1) return contactAvx512(in);
+#endif
+    return contactScalar(in);
+}
+
+int path() { return gPath.load(); }
+
+bool setPath(int path) {
+    if (!cpuRuns(path)) return false;
+    gPath.store(path);
+    return true;
+}
+
+}  // namespace ch::pairs
