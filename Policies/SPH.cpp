@@ -13,30 +13,13 @@ namespace ch {
 
 CH_REGISTER_COMPONENT(SPH);
 
-namespace {
-
-/// kernels.h with the powers of h and the normalisations computed once per call (per step or per
-/// agent) instead of once per pair. Every expression keeps the order of operations of kernels.h,
-/// so the values are bit-identical.
-struct SphKernels {
-    double h, h2, c6, cS, cV;
-    explicit SphKernels(double hh) : h(hh), h2(hh * hh) {
-        const double h8 = h2 * h2 * h2 * h2;
-        const double h5 = h * h * h * h * h;
-        c6 = 4.0 / (kPi * h8);
-        cS = 30.0 / (kPi * h5);
-        cV = 360.0 / (29.0 * kPi * h5);
-    }
-    double poly6(double r2) const {
-        if (r2 >= h2) return 0.0;
-        const double d = h2 - r2;
-        return c6 * d * d * d;
-    }
-    double spikyGradMagnitude(double r) const { return r >= h ? 0.0 : cS * (h - r) * (h - r); }
-    double viscosityLaplacian(double r) const { return r >= h ? 0.0 : cV * (h - r); }
-};
-
-}  // namespace
+SPH::Kernels::Kernels(double hh) : h(hh), h2(hh * hh) {
+    const double h8 = h2 * h2 * h2 * h2;
+    const double h5 = h * h * h * h * h;
+    c6 = 4.0 / (kPi * h8);
+    cS = 30.0 / (kPi * h5);
+    cV = 360.0 / (29.0 * kPi * h5);
+}
 
 ComponentInfo SPH::Info() {
     ComponentInfo info;
@@ -114,8 +97,9 @@ void SPH::prepare(const StepContext& ctx) {
     average_.resize(n, 0.0);
     known_.resize(n, 0);
 
-    const double h = smoothingLength();
-    const SphKernels K(h);
+    kernels_ = Kernels(smoothingLength());
+    const Kernels& K = kernels_;
+    const double h = K.h;
     const double w = std::min(1.0, ctx.dt / adaptationTime_);
     const bool analytic = analyticWalls();
     const std::vector<Vec2>& particles = ctx.world.boundaryParticles();
@@ -188,8 +172,8 @@ Vec2 SPH::acceleration(const AgentQuery& q, const StepContext& ctx) const {
     const std::size_t i = static_cast<std::size_t>(q.i);
     if (i >= density_.size() || !(density_[i] > 0)) return {0, 0};
     const AgentStore& A = ctx.agents;
-    const double h = smoothingLength();
-    const SphKernels K(h);
+    const Kernels& K = kernels_;  // this step's (prepare() ran before any per-agent call)
+    const double h = K.h;
     const double rhoI = density_[i], pI = pressure_[i];
     const bool pressure = pI > 0;  // absolute pressure: only a compressed agent is pushed
 
@@ -204,7 +188,7 @@ Vec2 SPH::acceleration(const AgentQuery& q, const StepContext& ctx) const {
         in.pressure = pressure_.data();
         in.velocity = A.vel.data();
         in.h = h;
-        in.h2 = h * h;
+        in.h2 = K.h2;
         in.cS = K.cS;
         in.cV = K.cV;
         in.pressureI = pI;

@@ -60,6 +60,24 @@ public:
     WallPressure wallPressureRule() const { return static_cast<WallPressure>(static_cast<int>(wallPressureRule_)); }
 
 private:
+    /// kernels.h with the powers of h and the normalisations computed once per step instead of
+    /// once per pair or per agent. Every expression keeps the order of operations of kernels.h,
+    /// so the values are bit-identical.
+    struct Kernels {
+        double h = 1, h2 = 1, c6 = 0, cS = 0, cV = 0;
+        Kernels() = default;
+        explicit Kernels(double hh);
+        double poly6(double r2) const {
+            if (r2 >= h2) return 0.0;
+            const double d = h2 - r2;
+            return c6 * d * d * d;
+        }
+        double spikyGradMagnitude(double r) const { return r >= h ? 0.0 : cS * (h - r) * (h - r); }
+        double viscosityLaplacian(double r) const { return r >= h ? 0.0 : cV * (h - r); }
+    };
+    /// This step's kernels (prepare(): the smoothing length may change between steps, by a ramp).
+    Kernels kernels_;
+
     double gasConstant_ = 200;        ///< k, m²/s²
     double restDensityMin_ = 0;       ///< ρ0_min, 1/m²
     double restDensityMax_ = 5;       ///< ρ0_max, 1/m²
