@@ -58,6 +58,22 @@ Vec2 sphScalar(const SphInput& in) {
     return {ax, ay};
 }
 
+/// SPH's density, the reference (SPH::prepare's loop over the list through forEachNeighbour: an
+/// entry at exactly h adds m_j · 0, which changes no sum, so it is skipped here).
+CH_PAIRS_NO_CONTRACT
+double densityScalar(const DensityInput& in) {
+    double rho = in.start;
+    for (std::size_t k = 0; k < in.count; ++k) {
+        const NeighbourAgent& nb = in.entries[k];
+        const double x = nb.offset.x(), y = nb.offset.y();
+        const double r2 = x * x + y * y;
+        if (!(r2 < in.h2)) continue;
+        const double d = in.h2 - r2;
+        rho += in.mass[nb.index] * (in.c6 * d * d * d);
+    }
+    return rho;
+}
+
 /// ContactForces' agent springs, the reference (ContactForces::prepare's loop over the list).
 CH_PAIRS_NO_CONTRACT
 Vec2 contactScalar(const ContactInput& in) {
@@ -179,6 +195,27 @@ Vec2 sphAvx512(const SphInput& in) {
     }
     return {ax, ay};
 }
+/// SPH's density, eight entries per step, the terms added in list order as above (the sum starts
+/// at m_i W(0) > 0 and every term is ≥ 0, so adding +0 for a skipped lane changes nothing).
+CH_PAIRS_AVX512 CH_PAIRS_NO_CONTRACT
+double densityAvx512(const DensityInput& in) {
+    const __m512d h2 = _mm512_set1_pd(in.h2), c6 = _mm512_set1_pd(in.c6);
+    alignas(64) double t[8];
+    double rho = in.start;
+    prefetchFollowing(in.entries, in.count);
+    for (std::size_t k = 0; k < in.count; k += 8) {
+        const std::size_t left = in.count - k < 8 ? in.count - k : 8;
+        const lanes::Entries8 g = lanes::load8<true>(in.entries + k, left);
+        const __m512d r2 = _mm512_add_pd(_mm512_mul_pd(g.x, g.x), _mm512_mul_pd(g.y, g.y));
+        const __mmask8 use = g.live & _mm512_cmp_pd_mask(r2, h2, _CMP_LT_OQ);
+        const __m512d d = _mm512_sub_pd(h2, r2);
+        const __m512d w = _mm512_mul_pd(_mm512_mul_pd(_mm512_mul_pd(c6, d), d), d);
+        _mm512_store_pd(t, _mm512_maskz_mul_pd(use, column8(in.mass, g), w));
+        for (std::size_t l = 0; l < 8; ++l) rho += t[l];
+    }
+    return rho;
+}
+
 /// ContactForces' agent springs, eight entries per step, the terms added in list order as above.
 CH_PAIRS_AVX512 CH_PAIRS_NO_CONTRACT
 Vec2 contactAvx512(const ContactInput& in) {
@@ -229,6 +266,13 @@ Vec2 sphForce(const SphInput& in) {
     if (gPath.load(std::memory_order_relaxed) == 1) return sphAvx512(in);
 #endif
     return sphScalar(in);
+}
+
+double sphDensity(const DensityInput& in) {
+#ifdef CH_PAIRS_X86
+    if (gPath.load(std::memory_order_relaxed) == 1) return densityAvx512(in);
+#endif
+    return densityScalar(in);
 }
 
 Vec2 contactForce(const ContactInput& in) {

@@ -1,6 +1,7 @@
 // CrowdHealth — the dense crowd's per-agent pair sums over a neighbour list, each with a scalar
-// build and an AVX-512 build (issue 20): SPH's pressure and viscosity (a fifth of the dense step,
-// bound by a square root and three divisions per pair) and ContactForces' agent springs.
+// build and an AVX-512 build (issue 20): SPH's density, SPH's pressure and viscosity (a fifth of
+// the dense step, bound by a square root and three divisions per pair) and ContactForces' agent
+// springs.
 //
 // Both builds give the same bits: each pair's term is the same expression with the same roundings
 // (IEEE square root and division, no fused multiply-add), and the terms are added one by one in
@@ -35,6 +36,18 @@ struct SphInput {
 ///   μ m_j / ρ_j · cV (h − r) · (v_j − v_i)                         (when μ > 0)
 /// (not yet divided by ρ_i).
 Vec2 sphForce(const SphInput& in);
+
+/// What SPH's density sum reads.
+struct DensityInput {
+    const NeighbourAgent* entries = nullptr;  ///< agent i's neighbour list
+    std::size_t count = 0;
+    const double* mass = nullptr;  ///< m_j, by agent index
+    double h2 = 1, c6 = 0;         ///< poly6 kernel: c6 (h² − r²)³ for r² < h²
+    double start = 0;              ///< the sum so far: agent i's own term m_i W(0)
+};
+
+/// start + Σ_j over the entries with |offset|² < h², in list order, of m_j c6 (h² − |offset|²)³.
+double sphDensity(const DensityInput& in);
 
 /// What ContactForces' agent springs read.
 struct ContactInput {

@@ -115,7 +115,20 @@ void SPH::prepare(const StepContext& ctx) {
             const std::size_t i = static_cast<std::size_t>(ii);
             const Vec2& x = A.pos[i];
             double rho = A.mass[i] * K.poly6(0.0);  // the agent itself (r = 0), then the others
-            ctx.forEachNeighbour(i, h, [&](int j, const Vec2&, double d2) { rho += A.mass[j] * K.poly6(d2); });
+            if (ctx.lists != nullptr && i < ctx.lists->size() && h <= ctx.lists->radius(i)) {
+                // The step's list (PairSums.h: eight entries at a time where the CPU has AVX-512).
+                const std::span<const NeighbourAgent> list = ctx.lists->agents(i);
+                pairs::DensityInput in;
+                in.entries = list.data();
+                in.count = list.size();
+                in.mass = A.mass.data();
+                in.h2 = K.h2;
+                in.c6 = K.c6;
+                in.start = rho;
+                rho = pairs::sphDensity(in);
+            } else {
+                ctx.forEachNeighbour(i, h, [&](int j, const Vec2&, double d2) { rho += A.mass[j] * K.poly6(d2); });
+            }
             if (useParticles) {
                 particleGrid.forEachWithin(x, h, [&](int, const Vec2&, double d2) { rho += K.poly6(d2); });
             } else if (analytic) {

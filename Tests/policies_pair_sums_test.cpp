@@ -1,5 +1,5 @@
-// CrowdHealth tests — the dense crowd's pair sums (Policies/PairSums.h, issue 20): SPH's pressure
-// and viscosity and ContactForces' agent springs, in their scalar and AVX-512 builds, against the
+// CrowdHealth tests — the dense crowd's pair sums (Policies/PairSums.h, issue 20): SPH's density,
+// SPH's pressure and viscosity and ContactForces' agent springs, in their scalar and AVX-512 builds, against the
 // models' own expressions written out here pair by pair (as SPH.cpp and ContactForces.cpp had
 // them before the sums moved), bit for bit, on lists of every length up to five groups of eight,
 // with the entries each test must skip: beyond the range, exactly at it, at distance 0, neighbours
@@ -99,6 +99,23 @@ Vec2 sphReference(const std::vector<NeighbourAgent>& entries, const Crowd& c, do
     return a;
 }
 
+/// SPH's density sum as SPH::prepare wrote it (forEachNeighbour within h, then the poly6 kernel).
+double densityReference(const std::vector<NeighbourAgent>& entries, const Crowd& c, double h, double start) {
+    const double h2 = h * h, h8 = h2 * h2 * h2 * h2;
+    const double c6 = 4.0 / (kPi * h8);
+    const auto poly6 = [&](double r2) {
+        if (r2 >= h2) return 0.0;
+        const double d = h2 - r2;
+        return c6 * d * d * d;
+    };
+    double rho = start;
+    for (const NeighbourAgent& nb : entries) {
+        const double d2 = nb.distanceSquared();
+        if (d2 <= h * h) rho += c.mass[static_cast<std::size_t>(nb.index)] * poly6(d2);
+    }
+    return rho;
+}
+
 /// ContactForces' agent springs as its prepare() wrote them (through StepContext::forEachNeighbour).
 Vec2 contactReference(const std::vector<NeighbourAgent>& entries, const Crowd& c, double D, double maxD, double k) {
     const double r2 = (D + maxD) * (D + maxD);
@@ -157,6 +174,32 @@ BOOST_AUTO_TEST_CASE(sph_force_is_the_models_sum_bit_for_bit_in_every_build) {
         }
     }
     BOOST_TEST(nonZero > 100);  // the sums are not all zero (the comparison would then prove little)
+}
+
+BOOST_AUTO_TEST_CASE(sph_density_is_the_models_sum_bit_for_bit_in_every_build) {
+    RestorePath restore;
+    const Crowd c(17);
+    std::mt19937_64 rng(9);
+    for (const int path : paths()) {
+        BOOST_TEST_REQUIRE(pairs::setPath(path));
+        for (const double h : {1.0, 0.7}) {
+            const double h2 = h * h;
+            for (int n = 0; n <= 40; ++n) {
+                const std::vector<NeighbourAgent> entries = list(n, h, rng);
+                pairs::DensityInput in;
+                in.entries = entries.data();
+                in.count = entries.size();
+                in.mass = c.mass.data();
+                in.h2 = h2;
+                in.c6 = 4.0 / (kPi * (h2 * h2 * h2 * h2));
+                in.start = 1.1 * in.c6 * h2 * h2 * h2;  // m_i W(0)
+                const double got = pairs::sphDensity(in), want = densityReference(entries, c, h, in.start);
+                BOOST_TEST(std::memcmp(&got, &want, sizeof got) == 0,
+                           "path " << path << " h " << h << " n " << n << ": " << got << " against " << want);
+                if (n > 3) BOOST_TEST(want > in.start);  // neighbours within h add to it
+            }
+        }
+    }
 }
 
 BOOST_AUTO_TEST_CASE(contact_force_is_the_models_sum_bit_for_bit_in_every_build) {
