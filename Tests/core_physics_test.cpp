@@ -9,6 +9,7 @@
 #include "test_support.h"
 
 #include <cmath>
+#include <map>
 
 using namespace ch;
 
@@ -224,4 +225,60 @@ BOOST_AUTO_TEST_CASE(reordering_agents_keeps_every_agents_state) {
     BOOST_TEST(worst < 1e-6);
     BOOST_TEST(worstForce < 1e-6);
     BOOST_TEST(never.agents().pos.size() == 100u);  // nobody left in 2 s: all 100 compared
+}
+
+BOOST_AUTO_TEST_CASE(agents_leave_at_their_goal_or_out_of_the_world_in_agent_order) {
+    // 60 walkers in rows 1 m apart inside a planar world x in [-5, 5]: a third leave at a goal
+    // 2 m ahead (removed at the goal), a third walk out through the right edge, a third stay
+    // (goal far ahead but kept at the goal). The removals are listed in agent order within a step,
+    // the evacuations by id, and both are the same with one and two threads (the scan is parallel).
+    auto make = [] {
+        std::vector<AgentSpec> agents;
+        for (int k = 0; k < 60; ++k) {
+            const double y = static_cast<double>(k);
+            const int kind = (k * 7) % 3;  // mixed along the rows
+            AgentSpec a = test::agent(static_cast<AgentId>(100 - k), {-2.0 + 0.05 * (k % 5), y},
+                                      kind == 0 ? Vec2(0.0, y) : kind == 1 ? Vec2(20.0, y) : Vec2(3.0, y), 0.2, 1.3, 1.6);
+            a.removeAtGoal = kind == 0;
+            agents.push_back(a);
+        }
+        auto spec = test::scenario(agents, {test::policy(0, OptimisationMethod::Gradient, {test::component("GoalReachingForce")}, 0.5)},
+                                   0.1, 12);
+        spec.world.type = WorldType::Planar;
+        spec.world.xmin = -5;
+        spec.world.xmax = 5;
+        spec.world.ymin = -1;
+        spec.world.ymax = 61;
+        return spec;
+    };
+    std::vector<std::vector<AgentId>> removedIds(2), evacuatedIds(2);
+    std::vector<std::size_t> leftWorld(2);
+    for (int threads = 1; threads <= 2; ++threads) {
+        Simulation sim(make());
+        sim.setThreads(threads);
+        while (!sim.finished()) {
+            // Where each agent is in the store before the step: a step's removals follow that order.
+            std::map<AgentId, std::size_t> at;
+            for (std::size_t i = 0; i < sim.agents().size(); ++i) at[sim.agents().id[i]] = i;
+            const std::size_t before = sim.removed().size();
+            sim.stepCoarse();
+            for (std::size_t k = before + 1; k < sim.removed().size(); ++k)
+                if (sim.removed()[k].time == sim.removed()[k - 1].time)
+                    BOOST_TEST(at.at(sim.removed()[k - 1].id) < at.at(sim.removed()[k].id));
+        }
+        for (const auto& r : sim.removed()) removedIds[threads - 1].push_back(r.id);
+        for (const Evacuation& e : sim.evacuations()) {
+            evacuatedIds[threads - 1].push_back(e.id);
+            BOOST_TEST(e.exit == -1);
+        }
+        leftWorld[threads - 1] = sim.leftWorld();
+        BOOST_TEST(sim.agents().size() == 20u);  // the third that stays
+        for (std::size_t i = 0; i < sim.agents().size(); ++i) BOOST_TEST(sim.world().inside(sim.agents().pos[i]));
+    }
+    BOOST_TEST(evacuatedIds[0].size() == 20u);
+    BOOST_TEST(leftWorld[0] == 20u);
+    BOOST_TEST(removedIds[0].size() == 40u);
+    BOOST_TEST(removedIds[0] == removedIds[1]);
+    BOOST_TEST(evacuatedIds[0] == evacuatedIds[1]);
+    BOOST_TEST(leftWorld[1] == leftWorld[0]);
 }

@@ -496,12 +496,20 @@ void Simulation::reorderAgents() {
 void Simulation::removeFinished() {
     const std::size_t n = agents_.size();
     std::vector<unsigned char>& remove = remove_;
-    remove.assign(n, 0);
-    bool any = false;
+    remove.resize(n);
+    exitOf_.resize(n);
     const double t = time();
     const std::size_t firstNew = evacuations_.size();
     const bool anyFallen = health_.anyFallen();
-    for (std::size_t i = 0; i < n; ++i) {
+    // Who leaves, in parallel (reads only): 1 through an exit or at the goal, 2 out of the world.
+    // The events are then written in agent order, as a single loop would (issue 20: the scan was
+    // a serial 3 % of the dense 10k step on two threads).
+    bool any = false;
+    const std::ptrdiff_t count = static_cast<std::ptrdiff_t>(n);
+#pragma omp parallel for schedule(static) reduction(|| : any) if (parallelCheapLoop(n))
+    for (std::ptrdiff_t ii = 0; ii < count; ++ii) {
+        const std::size_t i = static_cast<std::size_t>(ii);
+        remove[i] = 0;
         // Someone on the floor (CrowdHealth falls) leaves only once up again.
         if (anyFallen && health_.isFallen(agents_, i)) continue;
         // A journey ends in an exit (crowdhealth/navigation/navigation.h); a plain goal as in UMANS.
@@ -509,17 +517,21 @@ void Simulation::removeFinished() {
         const bool leaves = navigation_ && agents_.journey[i] >= 0
                                 ? exit >= 0
                                 : agents_.removeAtGoal[i] && agents_.hasGoal[i] && agents_.atGoal(i);
-        if (leaves) {
-            remove[i] = 1;
-            evacuations_.push_back(Evacuation{agents_.id[i], t, exit});
-            removed_.push_back(Removal{agents_.id[i], t, agents_.pos[i]});
-            health_.markExit(agents_, i, t);
-            any = true;
-        } else if (!world_.inside(agents_.pos[i])) {
-            remove[i] = 1;
-            ++leftWorld_;
-            removed_.push_back(Removal{agents_.id[i], t, agents_.pos[i]});
-            any = true;
+        exitOf_[i] = exit;
+        if (leaves) remove[i] = 1;
+        else if (!world_.inside(agents_.pos[i])) remove[i] = 2;
+        any = any || remove[i] != 0;
+    }
+    if (any) {
+        for (std::size_t i = 0; i < n; ++i) {
+            if (remove[i] == 1) {
+                evacuations_.push_back(Evacuation{agents_.id[i], t, exitOf_[i]});
+                removed_.push_back(Removal{agents_.id[i], t, agents_.pos[i]});
+                health_.markExit(agents_, i, t);
+            } else if (remove[i] == 2) {
+                ++leftWorld_;
+                removed_.push_back(Removal{agents_.id[i], t, agents_.pos[i]});
+            }
         }
     }
     // Agents leaving at the same step are listed by id, whatever their order in the store.

@@ -223,7 +223,8 @@ private:
     std::vector<Vec2> fineAccel_;     ///< Σ fine policy steps of this step (m/s²)
     std::vector<Vec2> umansContact_;  ///< UMANS' post-clamp contact acceleration (m/s²)
     std::vector<unsigned char> stopped_;  ///< 1: at its goal with a stopAtGoal step (stands still)
-    std::vector<unsigned char> remove_;   ///< removal marks (reused)
+    std::vector<unsigned char> remove_;   ///< removal marks (reused): 1 exit or goal, 2 out of the world
+    std::vector<int> exitOf_;             ///< the exit each agent leaves by this step, or -1 (reused)
     std::vector<Vec2> nextPos_, nextVel_, nextView_, nextContact_;
     std::array<double, kPhases> phaseSeconds_{};
 
