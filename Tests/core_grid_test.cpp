@@ -5,6 +5,8 @@
 #include "crowdhealth/core/grid.h"
 #include "crowdhealth/core/rng.h"
 
+#include <omp.h>
+
 #include <algorithm>
 #include <cmath>
 #include <vector>
@@ -129,5 +131,33 @@ BOOST_AUTO_TEST_CASE(segment_grid_matches_brute_force) {
         for (int k = 0; k < static_cast<int>(segs.size()); ++k)
             if (distanceToSegmentSquared(p, segs[k].a, segs[k].b) <= r * r) expected.push_back(k);
         BOOST_TEST(got == expected);
+    }
+}
+
+BOOST_AUTO_TEST_CASE(grid_built_on_two_threads_is_the_serial_one) {
+    // The counting sort runs on the team for crowds (parallelCheapLoop; ctest sets
+    // CROWDHEALTH_PARALLEL_MIN_AGENTS=1 so these small sets take that path): the points' order,
+    // hence every query's visit order, must be the serial sort's (stable: ascending within a cell).
+    const auto pts = randomPoints(3000, -20, 20, 11);
+    for (const bool periodic : {false, true}) {
+        for (const double cell : {0.5, 1.3}) {
+            std::vector<std::vector<int>> order(2), visits(2);
+            for (int threads = 1; threads <= 2; ++threads) {
+                omp_set_num_threads(threads);
+                PointGrid grid;
+                grid.build(pts, cell, periodic, 40.0, 40.0);
+                order[threads - 1] = grid.order();
+                for (int q = 0; q < 3000; q += 37)
+                    grid.forEachWithin(pts[q], 1.7, [&](int j, const Vec2&, double) { visits[threads - 1].push_back(j); });
+            }
+            omp_set_num_threads(2);
+            BOOST_TEST(order[0] == order[1], "periodic " << periodic << " cell " << cell);
+            BOOST_TEST(visits[0] == visits[1], "periodic " << periodic << " cell " << cell);
+            BOOST_TEST(visits[0].size() > 1000u);
+            // And the order is a permutation of the points (each listed once).
+            std::vector<int> sorted = order[0];
+            std::sort(sorted.begin(), sorted.end());
+            for (int i = 0; i < 3000; ++i) BOOST_TEST_REQUIRE(sorted[static_cast<std::size_t>(i)] == i);
+        }
     }
 }
