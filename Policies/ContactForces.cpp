@@ -143,12 +143,11 @@ void ContactForces::prepare(const StepContext& ctx) {
             const double D = A.radius[i];
             const double reachMax = D + maxRadius;
             Vec2 a(0, 0);
-            if (ctx.lists != nullptr && i < ctx.lists->size() && reachMax <= ctx.lists->radius(i)) {
+            if (const auto list = ctx.storedList(i, reachMax)) {
                 // The step's list (PairSums.h: eight entries at a time where the CPU has AVX-512).
-                const std::span<const NeighbourAgent> list = ctx.lists->agents(i);
                 pairs::ContactInput in;
-                in.entries = list.data();
-                in.count = list.size();
+                in.entries = list->data();
+                in.count = list->size();
                 in.radius = A.radius.data();
                 in.radiusI = D;
                 in.reach2 = reachMax * reachMax;

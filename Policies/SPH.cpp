@@ -115,12 +115,11 @@ void SPH::prepare(const StepContext& ctx) {
             const std::size_t i = static_cast<std::size_t>(ii);
             const Vec2& x = A.pos[i];
             double rho = A.mass[i] * K.poly6(0.0);  // the agent itself (r = 0), then the others
-            if (ctx.lists != nullptr && i < ctx.lists->size() && h <= ctx.lists->radius(i)) {
+            if (const auto list = ctx.storedList(i, h)) {
                 // The step's list (PairSums.h: eight entries at a time where the CPU has AVX-512).
-                const std::span<const NeighbourAgent> list = ctx.lists->agents(i);
                 pairs::DensityInput in;
-                in.entries = list.data();
-                in.count = list.size();
+                in.entries = list->data();
+                in.count = list->size();
                 in.mass = A.mass.data();
                 in.h2 = K.h2;
                 in.c6 = K.c6;

@@ -82,8 +82,8 @@ struct StepContext {
     template <class F>
     void forEachNeighbour(std::size_t i, double radius, F&& f) const {
         const double r2 = radius * radius;
-        if (lists != nullptr && i < lists->size() && radius <= lists->radius(i)) {
-            for (const NeighbourAgent& nb : lists->agents(i)) {
+        if (const auto list = storedList(i, radius)) {
+            for (const NeighbourAgent& nb : *list) {
                 const double d2 = nb.distanceSquared();
                 if (d2 <= r2) f(nb.index, nb.offset, d2);
             }
@@ -93,6 +93,15 @@ struct StepContext {
         grid.forEachWithin(agents.pos[i], radius, [&](int j, const Vec2& d, double d2) {
             if (j != self) f(j, d, d2);
         });
+    }
+
+    /// Agent i's stored neighbour list when the step's lists reach `radius` (every other agent
+    /// within it, and maybe some farther, in the order forEachNeighbour visits them), else none:
+    /// for loops that read the list themselves (Policies/PairSums.h) and fall back on
+    /// forEachNeighbour otherwise.
+    std::optional<std::span<const NeighbourAgent>> storedList(std::size_t i, double radius) const {
+        if (lists != nullptr && i < lists->size() && radius <= lists->radius(i)) return lists->agents(i);
+        return std::nullopt;
     }
 
     /// Wall segments within `radius` of agent i into `out` (ascending), from the step's lists
