@@ -2,13 +2,11 @@
 #include "PairSums.h"
 
 #include "crowdhealth/core/cpu_features.h"
+#include "crowdhealth/core/list_lanes.h"
 
 #include <atomic>
 #include <cmath>
-#include <cstdint>
-#include <cstring>
 
-#include "crowdhealth/core/list_lanes.h"
 #ifdef CH_LIST_LANES
 #define CH_PAIRS_X86 1
 #define CH_PAIRS_AVX512 __attribute__((target("avx512f,avx512dq,avx512vl")))
