@@ -6,6 +6,7 @@
 
 #include <atomic>
 #include <cmath>
+#include <cstdint>
 
 #ifdef CH_LIST_LANES
 #define CH_PAIRS_X86 1
@@ -112,9 +113,11 @@ CH_PAIRS_AVX512 [[gnu::always_inline]] inline __m512d column8(const double* colu
 /// buffer, or for lists that lie elsewhere (tests), it does nothing but waste a slot.
 constexpr std::size_t kPrefetchDistance = 1024;
 CH_PAIRS_AVX512 [[gnu::always_inline]] inline void prefetchFollowing(const NeighbourAgent* e, std::size_t count) {
-    const char* next = reinterpret_cast<const char*>(e + count) + kPrefetchDistance;
+    // Addresses computed as integers: a pointer past the end of the list's array would be
+    // undefined behaviour even unread.
+    const std::uintptr_t next = reinterpret_cast<std::uintptr_t>(e + count) + kPrefetchDistance;
     const std::size_t lines = (count * sizeof(NeighbourAgent)) / 64 + 1;
-    for (std::size_t l = 0; l < lines; ++l) _mm_prefetch(next + 64 * l, _MM_HINT_T0);
+    for (std::size_t l = 0; l < lines; ++l) _mm_prefetch(reinterpret_cast<const char*>(next + 64 * l), _MM_HINT_T0);
 }
 
 /// SPH, eight entries per step (crowdhealth/core/list_lanes.h): the neighbours' columns gathered,
