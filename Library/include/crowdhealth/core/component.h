@@ -96,12 +96,21 @@ struct StepContext {
     }
 
     /// Agent i's stored neighbour list when the step's lists reach `radius` (every other agent
-    /// within it, and maybe some farther, in the order forEachNeighbour visits them), else none:
-    /// for loops that read the list themselves (Policies/PairSums.h) and fall back on
-    /// forEachNeighbour otherwise.
+    /// within it, and maybe some farther, in the order forEachNeighbour visits them), else none.
     std::optional<std::span<const NeighbourAgent>> storedList(std::size_t i, double radius) const {
         if (lists != nullptr && i < lists->size() && radius <= lists->radius(i)) return lists->agents(i);
         return std::nullopt;
+    }
+
+    /// Every other agent within `radius` of agent i as a list, for loops that read the list
+    /// themselves (Policies/PairSums.h): the step's stored list when it reaches that far (it may
+    /// hold farther agents too: filter by distance), else forEachNeighbour's agents gathered into
+    /// `scratch`, in the same order. The span is valid until the scratch or the lists change.
+    std::span<const NeighbourAgent> neighbourList(std::size_t i, double radius, std::vector<NeighbourAgent>& scratch) const {
+        if (const auto list = storedList(i, radius)) return *list;
+        scratch.clear();
+        forEachNeighbour(i, radius, [&](int j, const Vec2& offset, double) { scratch.push_back(NeighbourAgent{offset, j}); });
+        return scratch;
     }
 
     /// Wall segments within `radius` of agent i into `out` (ascending), from the step's lists
