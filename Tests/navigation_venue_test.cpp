@@ -265,6 +265,40 @@ BOOST_AUTO_TEST_CASE(a_reopened_exit_is_taken_again) {
     for (const auto& [id, exit] : o.exitOf) BOOST_TEST(exit == "west");
 }
 
+BOOST_AUTO_TEST_CASE(exit_events_listed_out_of_time_order_apply_in_time_order) {
+    // The schedule lists east's closing (at 50 s) before west's (at once): west is closed from the
+    // start, so the agents beside it walk to the east exit, which is still open when they get there.
+    const std::vector<Vec2> places = grid(2, 8, 2, 2, 2.0);
+    const Loaded l = load("order.xml", fourExits("<ExitSet id=\"all\" exits=\"west east\" choice=\"nearest\"/>",
+                                                 agentsAt(places, "out"),
+                                                 "<CloseExit exit=\"east\" time=\"50\"/><CloseExit exit=\"west\" time=\"0\"/>"));
+    BOOST_REQUIRE_MESSAGE(l.spec, l.messages);
+    const Outcome o = runScenario(*l.spec);
+    BOOST_REQUIRE(o.exitOf.size() == places.size());
+    for (const auto& [id, exit] : o.exitOf) {
+        BOOST_TEST(exit == "east", "agent " << id);
+        BOOST_TEST(o.timeOf.at(id) < 50.0, "agent " << id);
+    }
+}
+
+BOOST_AUTO_TEST_CASE(an_agent_leaves_by_any_open_exit_of_its_set_it_walks_through) {
+    // A corridor with two exits drawn across it: "far" at its end, the one the set's fixed rule
+    // sends everyone to, and "near" half way, which the walkers cross on their way. Any exit of
+    // the set counts (docs/navigation.md): they leave by "near".
+    std::string world = "<World type=\"Planar\" xmin=\"-1\" xmax=\"21\" ymin=\"-1\" ymax=\"4\">\n<Navigation/>\n";
+    world += wall(0, 0, 20, 0) + wall(0, 3, 20, 3) + wall(0, 0, 0, 3);
+    world += "<Exit id=\"near\" xmin=\"9.5\" xmax=\"10\" ymin=\"0\" ymax=\"3\"/>\n";
+    world += "<Exit id=\"far\" xmin=\"19\" xmax=\"20\" ymin=\"0\" ymax=\"3\"/>\n";
+    world += "<ExitSet id=\"both\" exits=\"near far\" choice=\"fixed\" fixed=\"far\"/>\n";
+    world += "<Journey id=\"out\" leave_by=\"both\"/>\n</World>\n";
+    const std::vector<Vec2> places = grid(1, 0.75, 3, 2, 1.5);
+    const Loaded l = load("through.xml", simulation(world, agentsAt(places, "out"), 60));
+    BOOST_REQUIRE_MESSAGE(l.spec, l.messages);
+    const Outcome o = runScenario(*l.spec);
+    BOOST_REQUIRE(o.exitOf.size() == places.size());
+    for (const auto& [id, exit] : o.exitOf) BOOST_TEST(exit == "near", "agent " << id);
+}
+
 // ---- checkpoints ------------------------------------------------------------------------------
 
 namespace {
@@ -320,6 +354,33 @@ BOOST_AUTO_TEST_CASE(checkpoint_with_two_places_serves_two_at_once) {
     BOOST_REQUIRE(o.services.size() == 9u);
     BOOST_TEST(maxConcurrent(o.services) == 2);
     for (const auto& v : o.services) BOOST_TEST(v.end - v.start >= 3.0 - 1e-9);
+}
+
+BOOST_AUTO_TEST_CASE(a_journey_visits_its_waypoints_in_order) {
+    // Two gates 9 m apart along a corridor, 1 s at each, then the exit: every agent is served at
+    // the first gate, walks to the second (at least 9 m at most 1.6 m/s) and is served there.
+    std::string world = "<World type=\"Planar\" xmin=\"-1\" xmax=\"21\" ymin=\"-1\" ymax=\"4\">\n<Navigation/>\n";
+    world += wall(0, 0, 20, 0) + wall(0, 3, 20, 3) + wall(0, 0, 0, 3);
+    world += "<Target id=\"first\" xmin=\"4\" xmax=\"5\" ymin=\"0.5\" ymax=\"2.5\"/>\n";
+    world += "<Target id=\"second\" xmin=\"14\" xmax=\"15\" ymin=\"0.5\" ymax=\"2.5\"/>\n";
+    world += "<Exit id=\"end\" xmin=\"19\" xmax=\"20\" ymin=\"0\" ymax=\"3\"/>\n";
+    world += "<Journey id=\"gates\" leave_by=\"end\"><Waypoint target=\"first\" dwell=\"1\"/>"
+             "<Waypoint target=\"second\" dwell=\"1\"/></Journey>\n</World>\n";
+    const std::vector<Vec2> places = grid(0.7, 1.0, 2, 2, 1.0);
+    const Loaded l = load("gates.xml", simulation(world, agentsAt(places, "gates"), 100));
+    BOOST_REQUIRE_MESSAGE(l.spec, l.messages);
+    const Outcome o = runScenario(*l.spec);
+    BOOST_TEST(o.exitOf.size() == places.size());
+    std::map<AgentId, std::map<int, Navigation::Service>> byAgent;
+    for (const auto& v : o.services) byAgent[v.id][v.waypoint] = v;
+    BOOST_REQUIRE(byAgent.size() == places.size());
+    for (const auto& [id, served] : byAgent) {
+        BOOST_REQUIRE_MESSAGE(served.size() == 2u, "agent " << id << " served " << served.size() << " times");
+        const Navigation::Service& first = served.at(0);
+        const Navigation::Service& second = served.at(1);
+        BOOST_TEST(second.start - first.end >= 9.0 / 1.6 - 0.1, "agent " << id);
+        BOOST_TEST(o.timeOf.at(id) > second.end, "agent " << id);
+    }
 }
 
 // ---- sources ----------------------------------------------------------------------------------

@@ -17,6 +17,7 @@
 #include "crowdhealth/core/simulation.h"
 #include "crowdhealth/core/world.h"
 #include "crowdhealth/navigation/field.h"
+#include "crowdhealth/navigation/venue.h"
 
 #include "../test_support.h"
 #include "PairSums.h"
@@ -152,9 +153,15 @@ ScenarioSpec socialForces(std::size_t n, std::uint64_t seed = 1) {
 /// `navigation` the world has <Navigation/> (two fields: one per exit) and the goals are reached
 /// round the pillars; without it they walk straight (UMANS). The difference is what navigation
 /// adds to a step.
-ScenarioSpec socialForcesHall(std::size_t n, bool navigation, std::uint64_t seed = 1) {
+/// The hall's navigation: none (straight at the goals, UMANS), along distance fields to the same
+/// goals, or leaving by the quickest of the two exits (re-evaluated every 2 s, docs/navigation.md).
+enum class HallNavigation { None, Fields, Quickest };
+
+ScenarioSpec socialForcesHall(std::size_t n, HallNavigation navigation, std::uint64_t seed = 1) {
     ScenarioSpec s;
-    s.sourceFile = navigation ? "<bench:social-forces-hall-nav>" : "<bench:social-forces-hall>";
+    s.sourceFile = navigation == HallNavigation::None     ? "<bench:social-forces-hall>"
+                   : navigation == HallNavigation::Fields ? "<bench:social-forces-hall-nav>"
+                                                          : "<bench:social-forces-hall-quickest>";
     s.deltaTime = 0.1;
     s.endTime = -1;
     s.seed = seed;
@@ -172,7 +179,28 @@ ScenarioSpec socialForcesHall(std::size_t n, bool navigation, std::uint64_t seed
     wall(220, 0, 220, 29), wall(220, 31, 220, 89), wall(220, 91, 220, 120);  // exits at y 29–31 and 89–91
     for (double x = 125; x < 215; x += 10)
         for (double y = 5; y < 120; y += 10) s.obstacles.push_back(box(x, y, x + 1, y + 1));
-    if (navigation) s.venue.navigation = NavigationSpec{};
+    if (navigation != HallNavigation::None) s.venue.navigation = NavigationSpec{};
+    if (navigation == HallNavigation::Quickest) {
+        // Two exits just outside the doors, one exit set choosing the quickest, one journey.
+        ExitSetSpec doors;
+        doors.name = "doors";
+        doors.choice = ExitChoice::Quickest;
+        for (const double y : {30.0, 90.0}) {
+            TargetSpec exit;
+            exit.name = y < 60 ? "south_door" : "north_door";
+            exit.exit = true;
+            exit.width = 2;
+            exit.shape.kind = TargetShape::Kind::Polygon;
+            exit.shape.polygon = {Vec2(220.3, y - 1), Vec2(221, y - 1), Vec2(221, y + 1), Vec2(220.3, y + 1)};
+            doors.exits.push_back(exit.name);
+            s.venue.targets.push_back(std::move(exit));
+        }
+        s.venue.exitSets.push_back(std::move(doors));
+        JourneySpec out;
+        out.name = "out";
+        out.leaveBy = "doors";
+        s.venue.journeys.push_back(std::move(out));
+    }
     const std::size_t perRow = static_cast<std::size_t>(std::ceil(std::sqrt(static_cast<double>(n))));
     std::mt19937_64 rng(seed);
     std::uniform_real_distribution<double> jitter(-0.1, 0.1);
@@ -185,6 +213,7 @@ ScenarioSpec socialForcesHall(std::size_t n, bool navigation, std::uint64_t seed
         a.goalRadius = 1.5;
         a.removeAtGoal = true;
         a.radius = 0.24;
+        if (navigation == HallNavigation::Quickest) a.journey = "out";
         s.agents.push_back(std::move(a));
     }
     return s;
@@ -331,7 +360,10 @@ Result runSimCase(const Case& c) {
     r.threads = c.threads;
     const bool dense = c.kind.rfind("dense-sph", 0) == 0;
     const bool hall = c.kind.rfind("sf-hall", 0) == 0;
-    ScenarioSpec spec = dense ? denseSph(c.n) : hall ? socialForcesHall(c.n, c.kind == "sf-hall-nav") : socialForces(c.n);
+    const HallNavigation hallNavigation = c.kind == "sf-hall-nav"        ? HallNavigation::Fields
+                                          : c.kind == "sf-hall-quickest" ? HallNavigation::Quickest
+                                                                         : HallNavigation::None;
+    ScenarioSpec spec = dense ? denseSph(c.n) : hall ? socialForcesHall(c.n, hallNavigation) : socialForces(c.n);
     if (c.kind.find("shuffled") != std::string::npos) {
         // Agents listed in random order (as after much mixing): neighbours far apart in memory.
         std::mt19937_64 rng(7);
@@ -903,7 +935,7 @@ void runProcessCases(const std::string& crowdhealth, std::size_t n, int reps, bo
             std::fflush(stdout);
         }
         if (ok) {
-            std::printf("process %-14s %6zu   1  median: bare %.2f ms/step, whole process %.2f (%.2fx), marginal "
+            std::printf("process %-16s %6zu   1  median: bare %.2f ms/step, whole process %.2f (%.2fx), marginal "
                         "(fixed %.2f s apart) %.2f (%.2fx)\n",
                         sc.name, n, median(bare), median(whole), median(whole) / median(bare), median(fixed),
                         median(perStep), median(perStep) / median(bare));
@@ -930,6 +962,8 @@ void usage() {
                  "  --large         also the 1M-agent dense SPH crowd\n"
                  "  --threads LIST  thread counts, comma separated (default 1,2)\n"
                  "  --steps N       timed steps per case (default: by size)\n"
+                 "  --sizes LIST    crowd sizes of the dense, order, neighbour and output cases, comma separated (default\n"
+                 "                  1000,10000,100000; --quick 1000,10000; --large adds 1000000)\n"
                  "  --only TEXT     run only cases whose name contains TEXT (dense, order, social, hall, neigh, navigation, output, umans,\n"
                  "                  process)\n"
                  "  --csv FILE      also write every row as CSV\n"
@@ -958,6 +992,7 @@ int main(int argc, char** argv) {
     std::string csvPath, only, umansOption, crowdhealthOption;
     int umansReps = 0, processReps = 0;
     double umansTime = 0;
+    std::vector<std::size_t> sizesOverride;
     for (int k = 1; k < argc; ++k) {
         const std::string a = argv[k];
         auto next = [&]() -> std::string {
@@ -971,6 +1006,9 @@ int main(int argc, char** argv) {
         else if (a == "--large") large = true;
         else if (a == "--threads") threads = parseList(next());
         else if (a == "--steps") stepsOverride = std::stoi(next());
+        else if (a == "--sizes") {
+            for (int v : parseList(next())) sizesOverride.push_back(static_cast<std::size_t>(v));
+        }
         else if (a == "--csv") csvPath = next();
         else if (a == "--only") only = next();
         else if (a == "--no-fork") fork = false;
@@ -1017,6 +1055,7 @@ int main(int argc, char** argv) {
     std::vector<std::size_t> sizes = quick ? std::vector<std::size_t>{1000, 10000}
                                            : std::vector<std::size_t>{1000, 10000, 100000};
     if (large && !quick) sizes.push_back(1000000);
+    if (!sizesOverride.empty()) sizes = sizesOverride;
     auto stepsFor = [&](std::size_t n, int& warm, int& steps) {
         if (quick) { warm = 2; steps = 5; }
         else if (n <= 1000) { warm = 10; steps = 41; }
@@ -1035,18 +1074,18 @@ int main(int argc, char** argv) {
         }
         results.push_back(r);
         if (std::strcmp(r.kind, "output") == 0) {
-            std::printf("%-14s %8.0f %3.0f  %9.3f ms/frame (min %8.3f)  %9.3g MB/frame  VmHWM %7.1f MiB\n", r.scene,
+            std::printf("%-16s %8.0f %3.0f  %9.3f ms/frame (min %8.3f)  %9.3g MB/frame  VmHWM %7.1f MiB\n", r.scene,
                         r.n, r.threads, r.msMedian, r.msMin, r.extra1, r.hwmMiB);
         } else if (std::strcmp(r.kind, "navigation") == 0) {
-            std::printf("%-14s %8.0f %3.0f  grid %7.1f ms + 10 fields %7.1f ms = %7.1f ms (best; median %7.1f)  "
+            std::printf("%-16s %8.0f %3.0f  grid %7.1f ms + 10 fields %7.1f ms = %7.1f ms (best; median %7.1f)  "
                         "sample (direction+distance) %6.1f ns/query  VmHWM %7.1f MiB  %016llx\n",
                         r.scene, r.n, r.threads, r.extra3, r.extra1, r.msMin, r.msMedian, r.extra2, r.hwmMiB,
                         static_cast<unsigned long long>(r.hash));
         } else if (std::strcmp(r.kind, "neighbours") == 0) {
-            std::printf("%-14s %8.0f %3.0f  build %8.3f ms  query %7.1f ns/agent (%5.1f hits)  VmHWM %7.1f MiB\n",
+            std::printf("%-16s %8.0f %3.0f  build %8.3f ms  query %7.1f ns/agent (%5.1f hits)  VmHWM %7.1f MiB\n",
                         r.scene, r.n, r.threads, r.extra1, r.extra2, r.pairsPerAgent, r.hwmMiB);
         } else {
-            std::printf("%-14s %8.0f %3.0f  %9.3f  %9.3f  %12.3g  %8.1f  %7.3f  %5.0f%%  %016llx\n", r.scene, r.n,
+            std::printf("%-16s %8.0f %3.0f  %9.3f  %9.3f  %12.3g  %8.1f  %7.3f  %5.0f%%  %016llx\n", r.scene, r.n,
                         r.threads, r.msMedian, r.msMin, r.agentStepsPerSec, r.hwmMiB, r.limitMs,
                         r.limitMs > 0 ? 100.0 * r.limitMs / r.msMedian : 0.0, static_cast<unsigned long long>(r.hash));
         }
@@ -1064,7 +1103,7 @@ int main(int argc, char** argv) {
                 kIsa[2 * ch::pairs::path()], kIsa[2 * ch::nearEntriesPath()]);
     std::printf("neighbour lists: %s\n", gStoredLists ? "stored at every step (--stored-lists)"
                                                       : "gathered agent by agent where no component reads them stored");
-    std::printf("%-14s %8s %3s  %9s  %9s  %12s  %8s  %7s  %6s  %s\n", "scene", "agents", "thr", "ms/step", "min ms",
+    std::printf("%-16s %8s %3s  %9s  %9s  %12s  %8s  %7s  %6s  %s\n", "scene", "agents", "thr", "ms/step", "min ms",
                 "agent-step/s", "HWM MiB", "limit", "of lim", "state hash");
     if (wanted("dense"))
         for (std::size_t n : sizes)
@@ -1090,9 +1129,10 @@ int main(int argc, char** argv) {
             stepsFor(10000, c.warmup, c.steps);
             report(inChild([&] { return runSimCase(c); }, fork));
         }
-    if (wanted("social") || wanted("hall"))
-        // Navigation's share of a step: the same hall with and without <Navigation/>.
-        for (const char* kind : {"sf-hall", "sf-hall-nav"})
+    // Navigation's share of a step: the same hall without navigation, along distance fields to
+    // the same goals, and leaving by the quickest of its two exits (--only hall: all three).
+    for (const char* kind : {"sf-hall", "sf-hall-nav", "sf-hall-quickest"})
+        if (wanted("social") || wanted(kind))
             for (int t : threads) {
                 Case c{kind, 10000, t, 0, 0};
                 stepsFor(10000, c.warmup, c.steps);
@@ -1155,13 +1195,13 @@ int main(int argc, char** argv) {
     }
 
     // Phase breakdown (mean ms per step over the timed steps).
-    std::printf("\nphase breakdown (mean ms per step)\n%-14s %8s %3s", "scene", "agents", "thr");
+    std::printf("\nphase breakdown (mean ms per step)\n%-16s %8s %3s", "scene", "agents", "thr");
     for (std::size_t p = 0; p < Simulation::kPhases; ++p)
         std::printf(" %11s", Simulation::phaseName(static_cast<Simulation::Phase>(p)));
     std::printf(" %11s\n", "other");
     for (const Result& r : results) {
         if (std::strcmp(r.kind, "step") != 0) continue;
-        std::printf("%-14s %8.0f %3.0f", r.scene, r.n, r.threads);
+        std::printf("%-16s %8.0f %3.0f", r.scene, r.n, r.threads);
         for (double ms : r.phaseMs) std::printf(" %11.3f", ms);
         std::printf(" %11.3f\n", r.otherMs);
     }
@@ -1171,7 +1211,7 @@ int main(int argc, char** argv) {
                 "for the same agents and threads; pairs/agent = ordered pairs within h per agent\n");
     for (const Result& r : results)
         if (r.limitMs > 0)
-            std::printf("%-14s %8.0f %3.0f  pairs/agent %5.1f  kernel %8.3g pairs/s  limit %8.3f ms\n", r.scene, r.n,
+            std::printf("%-16s %8.0f %3.0f  pairs/agent %5.1f  kernel %8.3g pairs/s  limit %8.3f ms\n", r.scene, r.n,
                         r.threads, r.pairsPerAgent, r.extra1, r.limitMs);
 
     if (!csvPath.empty()) {

@@ -2,6 +2,7 @@
 #include "crowdhealth/navigation/navigation.h"
 
 #include "crowdhealth/core/parallel.h"
+#include "crowdhealth/core/radix_sort.h"
 #include "crowdhealth/core/rng.h"
 
 #include <algorithm>
@@ -10,7 +11,9 @@
 #include <limits>
 #include <map>
 #include <optional>
+#include <span>
 #include <stdexcept>
+#include <tuple>
 
 namespace ch {
 
@@ -30,6 +33,17 @@ struct Navigation::Target {
     bool exit = false;
     double width = 1.0;
     int capacity = 0;  ///< checkpoint places (0 = unlimited), from the journeys' waypoints
+    Vec2 lo{0, 0}, hi{0, 0};  ///< a polygon's bounds (shape.bounds())
+
+    /// shape.contains(p), with the polygon test skipped for a point outside the polygon's bounds
+    /// (the even-odd test gives false there too: no edge crosses its row to the point's left an
+    /// odd number of times). Per agent and step, for every exit of its set (Navigation::leaves).
+    bool contains(const Vec2& p) const {
+        if (shape.kind == TargetShape::Kind::Polygon &&
+            (p.x() < lo.x() || p.x() > hi.x() || p.y() < lo.y() || p.y() > hi.y()))
+            return false;
+        return shape.contains(p);
+    }
 };
 
 bool Navigation::needed(const ScenarioSpec& spec) {
@@ -55,9 +69,28 @@ Navigation::Navigation(const ScenarioSpec& spec, const World& world) : spec_(spe
             for (std::size_t k = 0; k < p.size(); ++k) w = std::max(w, (p[(k + 1) % p.size()] - p[k]).norm());
             target.width = w;
         }
+        if (t.shape.kind == TargetShape::Kind::Polygon && !t.shape.polygon.empty())
+            std::tie(target.lo, target.hi) = t.shape.bounds();
         targets_.push_back(std::move(target));
     }
     open_.assign(targets_.size(), 1);
+    for (const ExitSetSpec& e : venue.exitSets) {
+        std::vector<int> exits;
+        std::vector<double> weights;
+        for (std::size_t k = 0; k < e.exits.size(); ++k) {
+            exits.push_back(venue.targetIndex(e.exits[k]));
+            weights.push_back(k < e.weights.size() ? e.weights[k] : 1.0);
+        }
+        setExits_.push_back(std::move(exits));
+        setWeights_.push_back(std::move(weights));
+        setFixed_.push_back(venue.targetIndex(e.fixed));
+    }
+    for (const JourneySpec& j : venue.journeys) {
+        std::vector<int> stages;
+        for (const WaypointSpec& w : j.waypoints) stages.push_back(venue.targetIndex(w.target));
+        stageTarget_.push_back(std::move(stages));
+    }
+    for (const ExitEventSpec& e : venue.exitEvents) eventTarget_.push_back(venue.targetIndex(e.exit));
     for (const ExitSetSpec& e : venue.exitSets) quickest_ = quickest_ || e.choice == ExitChoice::Quickest;
     for (const JourneySpec& j : venue.journeys) {
         exitSetOf_.push_back(j.leaveBy.empty() ? -1 : venue.exitSetIndex(j.leaveBy));
@@ -199,7 +232,7 @@ void Navigation::activated(AgentStore& a, std::size_t i, const AgentSpec& s, dou
         if (js.waypoints.empty()) {
             chooseExit(a, i, time, spec_.seed);
         } else {
-            a.target[i] = spec_.venue.targetIndex(js.waypoints[0].target);
+            a.target[i] = stageTarget_[static_cast<std::size_t>(j)][0];
         }
     } else if (s.goal && !fields_.empty()) {
         a.target[i] = goalTarget(*s.goal);
@@ -358,19 +391,17 @@ void Navigation::chooseExit(AgentStore& a, std::size_t i, double t, std::uint64_
     const int j = a.journey[i];
     const int setIndex = exitSetOf_[static_cast<std::size_t>(j)];
     const ExitSetSpec* set = setIndex >= 0 ? &venue.exitSets[static_cast<std::size_t>(setIndex)] : nullptr;
-    std::vector<int> candidates;
-    std::vector<double> weights;
-    if (set) {
-        for (std::size_t k = 0; k < set->exits.size(); ++k) {
-            candidates.push_back(venue.targetIndex(set->exits[k]));
-            weights.push_back(k < set->weights.size() ? set->weights[k] : 1.0);
-        }
-    } else {
-        candidates.push_back(leaveExitOf_[static_cast<std::size_t>(j)]);
-        weights.push_back(1.0);
-    }
-    std::vector<int> openOnes;
-    std::vector<double> openWeights;
+    // The candidates: the set's exits (resolved once, in the constructor), or the journey's one exit.
+    const int single[1] = {leaveExitOf_[static_cast<std::size_t>(j)]};
+    const double one[1] = {1.0};
+    const std::span<const int> candidates =
+        set ? std::span<const int>(setExits_[static_cast<std::size_t>(setIndex)]) : std::span<const int>(single);
+    const std::span<const double> weights =
+        set ? std::span<const double>(setWeights_[static_cast<std::size_t>(setIndex)]) : std::span<const double>(one);
+    std::vector<int>& openOnes = openOnes_;
+    std::vector<double>& openWeights = openWeights_;
+    openOnes.clear();
+    openWeights.clear();
     for (std::size_t k = 0; k < candidates.size(); ++k)
         if (open_[static_cast<std::size_t>(candidates[k])]) {
             openOnes.push_back(candidates[k]);
@@ -413,7 +444,7 @@ void Navigation::chooseExit(AgentStore& a, std::size_t i, double t, std::uint64_
     switch (rule) {
         case ExitChoice::Nearest: chosen = nearest(); break;
         case ExitChoice::Fixed: {
-            const int f = venue.targetIndex(set->fixed);
+            const int f = setFixed_[static_cast<std::size_t>(setIndex)];
             chosen = open_[static_cast<std::size_t>(f)] ? f : nearest();
             break;
         }
@@ -488,7 +519,7 @@ void Navigation::update(AgentStore& a, double t, std::uint64_t seed) {
     while (nextEvent_ < eventOrder_.size() &&
            venue.exitEvents[static_cast<std::size_t>(eventOrder_[nextEvent_])].time <= t + 1e-9) {
         const ExitEventSpec& e = venue.exitEvents[static_cast<std::size_t>(eventOrder_[nextEvent_])];
-        open_[static_cast<std::size_t>(venue.targetIndex(e.exit))] = e.open ? 1 : 0;
+        open_[static_cast<std::size_t>(eventTarget_[static_cast<std::size_t>(eventOrder_[nextEvent_])])] = e.open ? 1 : 0;
         ++nextEvent_;
         changed = true;
     }
@@ -513,7 +544,7 @@ void Navigation::update(AgentStore& a, double t, std::uint64_t seed) {
         for (std::size_t i = 0; i < n; ++i)
             if (a.journey[i] >= 0 && leaving(a, i) && a.target[i] >= 0)
                 queues_[static_cast<std::size_t>(a.target[i])].push_back(a.navDistance[i]);
-        for (auto& q : queues_) std::sort(q.begin(), q.end());
+        for (auto& q : queues_) sortDoubles(q, sortKeys_, sortScratch_);
     }
 
     // 3. Dwell ends, arrivals, exit choices (serial, in agent order, on the state of 2).
@@ -540,7 +571,7 @@ void Navigation::update(AgentStore& a, double t, std::uint64_t seed) {
             }
             const bool inside = target.shape.kind == TargetShape::Kind::Point
                                     ? (a.pos[i] - target.shape.point).norm() <= std::max(target.shape.radius, a.goalRadius[i])
-                                    : target.shape.contains(a.pos[i]);
+                                    : target.contains(a.pos[i]);
             if (!inside) continue;
             if (target.capacity > 0 && !(a.navFlags[i] & kAdmitted)) continue;  // waits to be admitted
             if (w.dwell > 0 || target.capacity > 0) {
@@ -592,7 +623,7 @@ void Navigation::advance(AgentStore& a, std::size_t i, double t, std::uint64_t s
     const std::size_t next = static_cast<std::size_t>(a.stage[i]) + 1;
     if (next < js.waypoints.size()) {
         a.stage[i] = static_cast<int>(next);
-        a.target[i] = spec_.venue.targetIndex(js.waypoints[next].target);
+        a.target[i] = stageTarget_[static_cast<std::size_t>(a.journey[i])][next];
         a.navDir[i] = directionTo(a.target[i], a.pos[i], a.navDistance[i]);
     } else if (!js.leaveBy.empty()) {
         a.stage[i] = static_cast<int>(next);
@@ -629,13 +660,13 @@ int Navigation::leaves(const AgentStore& a, std::size_t i) const {
     if (js.leaveBy.empty()) return -1;
     // Any open exit the agent may leave by, not only the one it aimed for.
     auto through = [&](int e) {
-        return e >= 0 && open_[static_cast<std::size_t>(e)] && targets_[static_cast<std::size_t>(e)].shape.contains(a.pos[i]);
+        return e >= 0 && open_[static_cast<std::size_t>(e)] && targets_[static_cast<std::size_t>(e)].contains(a.pos[i]);
     };
     if (through(a.target[i])) return a.target[i];
     const int setIndex = exitSetOf_[static_cast<std::size_t>(a.journey[i])];
     if (setIndex >= 0)
-        for (const std::string& name : spec_.venue.exitSets[static_cast<std::size_t>(setIndex)].exits)
-            if (const int e = spec_.venue.targetIndex(name); through(e)) return e;
+        for (const int e : setExits_[static_cast<std::size_t>(setIndex)])
+            if (through(e)) return e;
     return -1;
 }
 

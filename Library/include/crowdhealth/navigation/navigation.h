@@ -116,8 +116,17 @@ private:
     std::vector<int> eventOrder_;        ///< exit events by time (stable)
     std::vector<int> exitSetOf_;         ///< per journey: its exit set (-1 none)
     std::vector<int> leaveExitOf_;       ///< per journey: its single exit (-1 none)
+    // The venue's names resolved once to target indices (the per-step code never looks a name up).
+    std::vector<std::vector<int>> setExits_;     ///< per exit set: its exits' targets, in its order
+    std::vector<std::vector<double>> setWeights_;  ///< per exit set: its exits' weights (default 1)
+    std::vector<int> setFixed_;                  ///< per exit set: the target of its fixed exit (-1 none)
+    std::vector<std::vector<int>> stageTarget_;  ///< per journey: each waypoint's target
+    std::vector<int> eventTarget_;               ///< per exit event: the exit's target
+    std::vector<int> openOnes_;                  ///< chooseExit's scratch: the open candidates
+    std::vector<double> openWeights_;            ///< and their weights
     std::vector<Service> services_;
     std::vector<std::vector<double>> queues_;  ///< per target: sorted distances of those heading there
+    std::vector<std::uint64_t> sortKeys_, sortScratch_;  ///< the queues' sort's scratch
     bool quickest_ = false;                    ///< some exit set chooses by the quickest rule
     /// Per social group (ScenarioSpec::groups), for groups drawn by sources: the id of its first
     /// member (-1: not a source's group), whether that member has been placed, where, and in which step.
