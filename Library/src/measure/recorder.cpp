@@ -20,6 +20,14 @@ int lineSide(const Vec2& a, const Vec2& b, const Vec2& p) {
     return ab.x() * ap.y() - ab.y() * ap.x() > 0 ? 1 : -1;
 }
 
+namespace {
+/// m: a line's bounds are widened by this before a move is tested against them. A move counted
+/// by crossing() meets the line inside both its own bounds and the line's; the margin covers the
+/// rounding of that test (~1e-12 m), so skipping the moves outside the widened bounds changes no
+/// count.
+constexpr double kCrossingMargin = 1e-6;
+}  // namespace
+
 int crossing(const Vec2& a, const Vec2& b, const Vec2& p, const Vec2& q) {
     const int sp = lineSide(a, b, p), sq = lineSide(a, b, q);
     if (sp == sq) return 0;
@@ -41,7 +49,23 @@ MeasurementRecorder::MeasurementRecorder(const ScenarioSpec& spec, std::vector<d
         l.a = m.a;
         l.b = m.b;
         l.length = std::max(1e-9, m.length());
+        l.lo = l.a.cwiseMin(l.b) - Vec2(kCrossingMargin, kCrossingMargin);
+        l.hi = l.a.cwiseMax(l.b) + Vec2(kCrossingMargin, kCrossingMargin);
         lines_.push_back(std::move(l));
+    }
+    if (!lines_.empty()) {
+        AgentId most = -1;
+        bool negative = false;
+        for (const AgentSpec& a : spec.agents) {
+            most = std::max(most, a.id);
+            negative = negative || a.id < 0;
+        }
+        // Flat when the ids are not far more spread than the agents (ids past it use the map).
+        const AgentId dense = 4 * static_cast<AgentId>(spec.agents.size()) + 4096;
+        if (!negative && most >= 0 && most < dense) {
+            lastById_.resize(static_cast<std::size_t>(most) + 1, Vec2(0, 0));
+            hasLastById_.resize(static_cast<std::size_t>(most) + 1, 0);
+        }
     }
     for (std::size_t k = 0; k < spec.venue.targets.size(); ++k) {
         const TargetSpec& t = spec.venue.targets[k];
@@ -118,17 +142,35 @@ void MeasurementRecorder::record(const AgentStore& agents, double t, const std::
     // Lines: each agent's straight move since the last record.
     if (!lines_.empty()) {
         auto move = [&](const Vec2& from, const Vec2& to) {
-            for (Line& l : lines_)
+            const Vec2 lo = from.cwiseMin(to), hi = from.cwiseMax(to);
+            for (Line& l : lines_) {
+                if (hi.x() < l.lo.x() || lo.x() > l.hi.x() || hi.y() < l.lo.y() || lo.y() > l.hi.y()) continue;
                 if (const int c = crossing(l.a, l.b, from, to); c != 0) countCrossing(l, c, t);
+            }
         };
+        auto flat = [&](AgentId id) { return id >= 0 && static_cast<std::size_t>(id) < lastById_.size(); };
         for (std::size_t i = 0; i < agents.size(); ++i) {
-            auto [it, inserted] = last_.try_emplace(agents.id[i], agents.pos[i]);
+            const AgentId id = agents.id[i];
+            if (flat(id)) {
+                const std::size_t k = static_cast<std::size_t>(id);
+                if (hasLastById_[k]) move(lastById_[k], agents.pos[i]);
+                hasLastById_[k] = 1;
+                lastById_[k] = agents.pos[i];
+                continue;
+            }
+            auto [it, inserted] = last_.try_emplace(id, agents.pos[i]);
             if (!inserted) {
                 move(it->second, agents.pos[i]);
                 it->second = agents.pos[i];
             }
         }
         for (const auto& [id, position] : removed) {
+            if (flat(id)) {
+                const std::size_t k = static_cast<std::size_t>(id);
+                if (hasLastById_[k]) move(lastById_[k], position);
+                hasLastById_[k] = 0;
+                continue;
+            }
             if (auto it = last_.find(id); it != last_.end()) {
                 move(it->second, position);
                 last_.erase(it);

@@ -95,6 +95,7 @@ private:
         std::size_t peakCount = 0;  ///< most crossings within one window
         double heldSince = -1, longest = 0, first = -1;  ///< above capacity
         double peak = 0;            ///< highest windowed specific flow (P/(m·s))
+        Vec2 lo{0, 0}, hi{0, 0};    ///< bounds of a → b, widened by kCrossingMargin
     };
     struct Area {
         std::string name;
@@ -113,6 +114,11 @@ private:
     SafetyThresholds t_;
     double intervalStart_ = 0, lastTime_ = -1;
     bool started_ = false;
+    /// Each agent's position at the last record: by id in a flat array for the ids of the
+    /// scenario's agents when they are dense enough (the usual case: ids 0 … N − 1), else (and for
+    /// agents added by hand with other ids) in the map.
+    std::vector<Vec2> lastById_;
+    std::vector<unsigned char> hasLastById_;
     std::unordered_map<AgentId, Vec2> last_;
     std::size_t removedSeen_ = 0, evacuationsSeen_ = 0;
     std::vector<std::vector<FlowRow>> flowRows_;
