@@ -2,7 +2,7 @@
 // (no XML) and reports ms per fine step, agent-steps per second, peak memory and where the time
 // goes. See docs/performance.md for the numbers and how to read them.
 //
-//   crowdhealth-bench [--quick] [--large] [--threads 1,2] [--steps N] [--only TEXT] [--csv FILE]
+//   crowdhealth-bench [--quick] [--large] [--threads 1,2] [--steps N] [--sizes LIST] [--only TEXT] [--csv FILE]
 //
 // Every case runs in its own forked child process, so the peak memory (VmHWM) is that case's
 // own (the parent never starts an OpenMP region, so forking is safe with libgomp).
@@ -964,8 +964,8 @@ void usage() {
                  "  --steps N       timed steps per case (default: by size)\n"
                  "  --sizes LIST    crowd sizes of the dense, order, neighbour and output cases, comma separated (default\n"
                  "                  1000,10000,100000; --quick 1000,10000; --large adds 1000000)\n"
-                 "  --only TEXT     run only cases whose name contains TEXT (dense, order, social, hall, neigh, navigation, output, umans,\n"
-                 "                  process)\n"
+                 "  --only TEXT     run only cases whose name contains TEXT (dense, order, social, hall, sf-hall-quickest, neigh,\n"
+                 "                  navigation, output, umans, process)\n"
                  "  --csv FILE      also write every row as CSV\n"
                  "  --umans PATH    UMANS' console application for the side-by-side case (default: $CROWDHEALTH_UMANS,\n"
                  "                  else /tmp/umans-ref/build/UMANS-ConsoleApplication-Linux as\n"
