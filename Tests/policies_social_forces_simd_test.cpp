@@ -1,7 +1,8 @@
 // CrowdHealth tests — SocialForcesAvoidance's SIMD pair loop (issue 20): its exponential
 // against std::exp, the whole agent force against the scalar pair force summed in list order,
 // for every combination of the model's switches and lists of every length modulo the lane count,
-// and its generic, AVX2 and AVX-512 builds against each other, bit for bit.
+// and its generic, AVX2 and AVX-512 builds against each other and against their own terms added
+// in list order, bit for bit.
 #define BOOST_TEST_MODULE policies_social_forces_simd
 #include <boost/test/unit_test.hpp>
 
@@ -179,5 +180,66 @@ BOOST_AUTO_TEST_CASE(every_pair_loop_build_gives_the_same_bits) {
                     }
     }
     BOOST_TEST_MESSAGE("builds compared with the generic one: " << compared);
+    BOOST_TEST(SocialForcesAvoidance::setPairLoopPath(best));
+}
+
+namespace {
+
+/// Agent 0's SocialForcesAvoidance acceleration (mass 1, no walls: the pair loop's sum itself)
+/// among the agents at `places` with velocities `vels` (agent 0 first), with the given switches.
+Vec2 pairSum(const std::vector<Vec2>& places, const std::vector<Vec2>& vels, bool relative, bool cutoff) {
+    test::Frame f;
+    for (std::size_t k = 0; k < places.size(); ++k) f.add(places[k], places[k] + Vec2(10, 3), vels[k]);
+    f.agents.mass[0] = 1.0;
+    auto sf = test::make("SocialForcesAvoidance",
+                         {{"range", 5}, {"otherVelocity", relative ? 1 : 0}, {"contactCutoff", cutoff ? 1 : 0}});
+    const StepContext ctx = f.context();
+    sf->prepare(ctx);
+    const test::OwnedQuery q = f.query(0);
+    return dynamic_cast<SocialForcesAvoidance&>(*sf).acceleration(q, ctx);
+}
+
+}  // namespace
+
+BOOST_AUTO_TEST_CASE(every_build_adds_the_pair_terms_in_list_order) {
+    // The force of a whole list equals, bit for bit, the terms of its neighbours one at a time
+    // (each computed by the same build in a list of one) added in list order from +0: in every
+    // build, whatever its lanes and blocks. (The comparison with the scalar pair force above has
+    // a tolerance, so it cannot see the order of the additions.)
+    const int best = SocialForcesAvoidance::pairLoopPath();
+    for (int path : {0, 1, 2}) {
+        if (!SocialForcesAvoidance::setPairLoopPath(path)) {
+            BOOST_TEST_MESSAGE("pair-loop build " << path << " not run: this CPU lacks it");
+            continue;
+        }
+        for (int n : {2, 3, 5, 8, 9, 17, 24, 25, 50})
+            for (bool relative : {false, true})
+                for (bool cutoff : {false, true}) {
+                    std::mt19937_64 rng(900 + n);
+                    std::uniform_real_distribution<double> u(-1.0, 1.0);
+                    std::vector<Vec2> places = {Vec2(0, 0)}, vels = {Vec2(1.1, 0.2)};
+                    for (int k = 0; k < n; ++k) {
+                        // Pairs of almost opposite neighbours: their terms nearly cancel, so the
+                        // order of the additions shows in the last bits.
+                        const double r = 0.5 + 4.0 * std::abs(u(rng)), a = 3.2 * u(rng);
+                        const Vec2 p(r * std::cos(a), r * std::sin(a));
+                        places.push_back(k % 2 == 0 ? p : Vec2(-places.back() * (1.0 + 1e-3 * u(rng))));
+                        vels.push_back(Vec2(u(rng), u(rng)));
+                    }
+                    const Vec2 whole = pairSum(places, vels, relative, cutoff);
+                    double fx = 0, fy = 0;
+                    for (int k = 1; k <= n; ++k) {
+                        const Vec2 term = pairSum({places[0], places[static_cast<std::size_t>(k)]},
+                                                  {vels[0], vels[static_cast<std::size_t>(k)]}, relative, cutoff);
+                        fx += term.x();
+                        fy += term.y();
+                    }
+                    const Vec2 inOrder(fx, fy);
+                    BOOST_TEST_CONTEXT("build " << path << " n " << n << " relative " << relative << " cutoff " << cutoff) {
+                        BOOST_TEST(whole.norm() > 0);
+                        BOOST_TEST(std::memcmp(&whole, &inOrder, sizeof whole) == 0);
+                    }
+                }
+    }
     BOOST_TEST(SocialForcesAvoidance::setPairLoopPath(best));
 }
