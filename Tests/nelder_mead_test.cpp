@@ -15,7 +15,7 @@ namespace {
 struct Counted {
     std::function<double(const std::vector<double>&)> f;
     std::size_t points = 0, batches = 0;
-    std::vector<std::vector<double>> asked;
+    std::vector<std::vector<double>> asked{};
     BatchObjective objective() {
         return [this](const std::vector<std::vector<double>>& xs, const std::string&) -> std::optional<std::vector<double>> {
             ++batches;
