@@ -55,6 +55,8 @@ po::options_description visibleOptions() {
         ("overwrite", "write into OUTDIR even if it holds files crowdhealth did not write: they are "
          "kept, files named as this run's outputs are replaced (without it such a folder is refused)")
         ("quiet,q", "no progress bar and no closing summary")
+        ("timing", "say where the run's wall time went: in the simulation's steps, in recording "
+         "(metrics, safety grid, measurement, trajectories) and the rest (also with --quiet)")
         ("check", "validate the scenario (load and build it), print a one-line summary, write nothing")
         ("plugin", po::value<std::vector<std::string>>()->composing()->value_name("FILE"),
          "load a plugin (a shared library of cost functions and forces, docs/adding-a-policy.md) "
@@ -174,6 +176,7 @@ std::optional<Options> parseCommandLine(int argc, const char* const argv[], std:
 
     o.command = vm.count("check") ? Command::Check : Command::Run;
     o.quiet = vm.count("quiet") != 0;
+    o.timing = vm.count("timing") != 0;
     o.plot = vm.count("plot") != 0;
     o.overwrite = vm.count("overwrite") != 0;
     if (o.plot && o.command == Command::Check) {

@@ -38,6 +38,8 @@ struct Options {
     /// kept; files named as this run's outputs are replaced). See output_folder.h.
     bool overwrite = false;
     bool quiet = false;
+    /// --timing: print the wall time split into the simulation's steps and the recorders.
+    bool timing = false;
     ListFormat format = ListFormat::Text;
     /// --plugin FILE (repeatable): plugins loaded before anything else (crowdhealth/plugin.h).
     std::vector<std::string> plugins;

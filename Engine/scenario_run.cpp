@@ -230,7 +230,9 @@ void RunSession::begin() {
     rec_->measurement.record(sim_);
     rec_->metrics.sample(sim_);  // the t = 0 row, before the first step
     if (rec_->trajectory) rec_->trajectory->record(sim_);  // frame 0
-    wallSeconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - wallStart).count();
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - wallStart).count();
+    recordSeconds_ += seconds;
+    wallSeconds_ += seconds;
 }
 
 bool RunSession::done() {
@@ -243,13 +245,18 @@ bool RunSession::done() {
 }
 
 void RunSession::step() {
-    const auto wallStart = std::chrono::steady_clock::now();
+    using Clock = std::chrono::steady_clock;
+    const auto wallStart = Clock::now();
     sim_.stepCoarse();
+    const auto stepped = Clock::now();
     rec_->safety.record(sim_);
     rec_->measurement.record(sim_);
     rec_->metrics.maybeSample(sim_);
     if (rec_->trajectory) rec_->trajectory->maybeRecord(sim_);
-    wallSeconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - wallStart).count();
+    const auto recorded = Clock::now();
+    stepSeconds_ += std::chrono::duration<double>(stepped - wallStart).count();
+    recordSeconds_ += std::chrono::duration<double>(recorded - stepped).count();
+    wallSeconds_ += std::chrono::duration<double>(recorded - wallStart).count();
 }
 
 void RunSession::end() {
@@ -258,6 +265,8 @@ void RunSession::end() {
     rec_->measurement.finish();
     if (rec_->trajectory) rec_->trajectory->finish(sim_);  // likewise the final frame
     info_.wallTimeSeconds = wallSeconds_;
+    info_.stepSeconds = stepSeconds_;
+    info_.recordSeconds = recordSeconds_;
     verdict_ = verdict();  // the run's: computed while ended_ is still false
     ended_ = true;
 }

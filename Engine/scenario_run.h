@@ -141,6 +141,7 @@ private:
     ch::Verdict verdict_;
     bool ended_ = false;
     double wallSeconds_ = 0;
+    double stepSeconds_ = 0, recordSeconds_ = 0;  ///< of wallSeconds_: the steps, the recorders
 };
 
 /// Runs `sim` on `threads` OpenMP threads (set in the calling thread) until it finishes, the

@@ -255,3 +255,44 @@ BOOST_AUTO_TEST_CASE(safety_thresholds_of_the_scenario_reach_the_verdict_and_the
     const double x = std::stod(split(heat[1], ',')[0]);
     BOOST_TEST(std::fmod(std::abs(x), 2.0) == 1.0, "first heat-map row " << heat[1]);
 }
+
+BOOST_AUTO_TEST_CASE(timing_splits_the_wall_time_into_steps_recording_and_the_rest) {
+    // --timing adds one line to the closing summary (and prints it alone with --quiet): seconds in
+    // the simulation's steps, in recording, and the rest, which add up to the wall time printed.
+    // The doorway base case for 10 s with PedPy trajectories: ~13 % of its loop is recording.
+    const fs::path dir = freshDir(caseName());
+    const std::string scenario = (fs::path(CH_SOURCE_DIR) / "Examples" / "doorway" / "base-case.xml").string();
+    const Result r = run(dir, {"-i", scenario, "-o", "out", "-t", "1", "-q", "--timing", "--end-time", "10",
+                               "--trajectories", "txt"});
+    BOOST_REQUIRE_MESSAGE(r.status == 0, r.err);
+    double wall = -1, steps = -1, recording = -1, other = -1;
+    for (const std::string& l : lines(r.out)) {
+        if (l.rfind("  of which ", 0) == 0) {
+            BOOST_TEST(std::sscanf(l.c_str(), "  of which %lf s in steps (%*f %%), %lf s recording (%*f %%), %lf s other",
+                                   &steps, &recording, &other) == 3, l);
+        }
+    }
+    wall = steps + recording + other;
+    BOOST_TEST(steps > 0, r.out);
+    BOOST_TEST(recording > 0, r.out);  // metrics, the safety grid and the verdict's records
+    BOOST_TEST(other >= 0, r.out);
+    // The loop does nothing else with --quiet: the rest is tiny (~0.1 %; the bound leaves room for
+    // the odd preemption between two clock readings), so the recording is counted where it runs.
+    BOOST_TEST(other <= 0.05 * wall, r.out);
+    BOOST_TEST(r.out.find("wall time") == std::string::npos, r.out);  // --quiet: that line alone
+    // Without --quiet it follows the wall time and adds up to it (3 significant digits each).
+    const Result full = run(dir, {"-i", testData("evacuation.xml"), "-o", "out2", "-t", "1", "--timing"});
+    BOOST_REQUIRE_MESSAGE(full.status == 0, full.err);
+    const auto rows = lines(full.out);
+    double shownWall = -1, a = -1, b = -1, c = -1;
+    for (std::size_t k = 0; k + 1 < rows.size(); ++k)
+        if (rows[k].rfind("  wall time ", 0) == 0) {
+            shownWall = std::stod(rows[k].substr(rows[k].find('(') + 1));
+            BOOST_TEST(std::sscanf(rows[k + 1].c_str(), "  of which %lf s in steps (%*f %%), %lf s recording (%*f %%), %lf s other",
+                                   &a, &b, &c) == 3, rows[k + 1]);
+        }
+    BOOST_TEST(shownWall > 0, full.out);
+    BOOST_TEST(std::abs(a + b + c - shownWall) <= 0.01 * shownWall, full.out);
+    const Result plain = run(dir, {"-i", testData("evacuation.xml"), "-o", "out3", "-t", "1"});
+    BOOST_TEST(plain.out.find("of which") == std::string::npos, plain.out);
+}

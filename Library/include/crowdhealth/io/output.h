@@ -370,6 +370,9 @@ struct RunInfo {
     bool interrupted = false;        ///< stopped by SIGINT/SIGTERM
     bool stoppedAtSafetyCap = false; ///< stopped because the safety cap on simulated time hit
     double wallTimeSeconds = 0;      ///< wall-clock duration of the simulation loop (display only)
+    /// Of wallTimeSeconds: inside Simulation::stepCoarse, and in the recorders of the run (metrics,
+    /// safety, measurement, trajectories). Display only, not in summary.json.
+    double stepSeconds = 0, recordSeconds = 0;
     int threads = 0;
 };
 
