@@ -15,6 +15,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace fs = std::filesystem;
@@ -109,4 +110,27 @@ BOOST_AUTO_TEST_CASE(every_scenario_in_examples_runs) {
     for (const fs::path& f : files) {
         BOOST_TEST_CONTEXT(f.lexically_relative(CH_SOURCE_DIR).string()) { loadAndStep(f, steps); }
     }
+}
+
+BOOST_AUTO_TEST_CASE(the_benchmark_scenes_load_with_their_crowds) {
+    // Tests/benchmarks/scenes: the dense crowd of crowdhealth-bench as scenario files for timing
+    // the whole program (docs/performance.md). Loaded here so they do not rot; not stepped (the
+    // million-agent one alone needs ~1 GB; it is skipped under the sanitizers).
+    const fs::path dir = fs::path(CH_SOURCE_DIR) / "Tests" / "benchmarks" / "scenes";
+    int loaded = 0;
+    for (const auto& [name, agents] : {std::pair<const char*, std::size_t>{"dense-lattice-10k.xml", 10000},
+                                      {"dense-lattice-100k.xml", 99856},
+                                      {"dense-lattice-1m.xml", 1000000}}) {
+        if (agents > 100000 && std::getenv("CROWDHEALTH_SHORT")) continue;
+        Diagnostics diags;
+        const auto spec = loadScenario((dir / name).string(), diags);
+        std::ostringstream messages;
+        diags.print(messages);
+        BOOST_TEST_REQUIRE(spec.has_value(), name << " failed to load:\n" << messages.str());
+        BOOST_TEST(spec->agents.size() == agents, name);
+        BOOST_TEST(spec->deltaTimeFine == 0.02, name);
+        BOOST_TEST(spec->endTime == 4.0, name);
+        ++loaded;
+    }
+    BOOST_TEST(loaded >= 2);
 }
