@@ -294,7 +294,12 @@ std::vector<std::string> RunSession::write(const fs::path& outDir, const std::fu
     folder.announce(names);
     rec_->metrics.write(outDir / "metrics.csv");
     ch::writeFileAtomic(outDir / "evacuations.csv", ch::evacuationsCsv(sim_));
-    ch::writeFileAtomic(outDir / "health.csv", ch::healthCsv(sim_.health()));
+    {
+        // Streamed: a million agents' health.csv is ~50 MB.
+        ch::AtomicFile health(outDir / "health.csv");
+        ch::healthCsv(sim_.health(), [&](std::string_view piece) { health.write(piece); });
+        health.commit();
+    }
     ch::writeFileAtomic(outDir / "heatmap.csv", rec_->safety.heatmapCsv());
     if (rec_->measurement.hasFlows()) ch::writeFileAtomic(outDir / "flows.csv", rec_->measurement.flowsCsv());
     if (rec_->measurement.hasAreas()) ch::writeFileAtomic(outDir / "areas.csv", rec_->measurement.areasCsv());

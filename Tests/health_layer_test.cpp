@@ -10,7 +10,9 @@
 #include "crowdhealth/health/health.h"
 #include "crowdhealth/io/output.h"
 
+#include <algorithm>
 #include <cmath>
+#include <string_view>
 
 using namespace ch;
 using namespace ch::test;
@@ -336,6 +338,31 @@ BOOST_AUTO_TEST_CASE(layer_is_thread_count_independent) {
         return healthCsv(sim.health());
     };
     BOOST_TEST(run(1) == run(2));
+}
+
+BOOST_AUTO_TEST_CASE(health_csv_in_pieces_is_the_whole_text) {
+    // The streamed health.csv (the program writes it piece by piece) is the text of healthCsv(),
+    // in pieces of about 1 MiB: 40,000 agents (~1.2 MB) give at least two.
+    std::vector<AgentSpec> agents;
+    for (int k = 0; k < 40000; ++k) agents.push_back(agent(k, {0.7 * (k % 200), 0.7 * (k / 200)}, {200, 2}));
+    ScenarioSpec s = fineScenario(agents, true, layer({}), 1);
+    Simulation sim(s);
+    sim.setThreads(1);
+    sim.stepCoarse();
+    const std::string whole = healthCsv(sim.health());
+    std::string joined;
+    std::size_t pieces = 0, largest = 0;
+    healthCsv(sim.health(), [&](std::string_view piece) {
+        ++pieces;
+        largest = std::max(largest, piece.size());
+        BOOST_TEST((!piece.empty() && piece.back() == '\n'));  // whole rows only
+        joined += piece;
+    });
+    BOOST_TEST(whole.size() > 1000000u);
+    BOOST_TEST((joined == whole));
+    BOOST_TEST(pieces >= 2u);
+    BOOST_TEST(largest <= (1u << 20) + 1000u);  // a piece ends with the row that fills a MiB
+    BOOST_TEST(std::count(whole.begin(), whole.end(), '\n') == 40001);
 }
 
 BOOST_AUTO_TEST_CASE(heading_change_is_the_mean_turn_rate_while_moving) {

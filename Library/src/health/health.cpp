@@ -654,11 +654,19 @@ double HealthLayer::meanPanic(const AgentStore& agents) const {
 }
 
 std::string healthCsv(const HealthLayer& health) {
+    std::string all;
+    healthCsv(health, [&](std::string_view piece) { all += piece; });
+    return all;
+}
+
+void healthCsv(const HealthLayer& health, const std::function<void(std::string_view)>& sink) {
+    constexpr std::size_t kPiece = std::size_t{1} << 20;
     std::vector<const HealthRecord*> rows;
     for (const HealthRecord& r : health.records())
         if (r.seen) rows.push_back(&r);
     std::sort(rows.begin(), rows.end(), [](const HealthRecord* a, const HealthRecord* b) { return a->id < b->id; });
     std::string out = kHealthHeader;
+    out.reserve(kPiece + 4096);
     out += '\n';
     auto optional = [&](double v) {
         out += ',';
@@ -688,8 +696,12 @@ std::string healthCsv(const HealthLayer& health) {
         appendNumber(out, r->helpDose);
         out += ',' + std::to_string(r->helpers);
         out += '\n';
+        if (out.size() >= kPiece) {
+            sink(out);
+            out.clear();
+        }
     }
-    return out;
+    if (!out.empty()) sink(out);
 }
 
 }  // namespace ch

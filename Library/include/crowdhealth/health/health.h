@@ -27,8 +27,10 @@
 #include "crowdhealth/core/scenario.h"
 
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace ch {
@@ -240,6 +242,9 @@ private:
 /// helpers`, one row per agent that was ever in the world,
 /// by id; an empty cell for "never".
 std::string healthCsv(const HealthLayer& health);
+/// The same text handed to `sink` in pieces of about 1 MiB (in order): written to a file as it is
+/// made, a million agents' health.csv (~50 MB) never sits in memory whole.
+void healthCsv(const HealthLayer& health, const std::function<void(std::string_view)>& sink);
 
 inline constexpr const char* kHealthHeader =
     "id,peak_contact_accel,peak_force,time_above_threshold,dose,injured_at,peak_panic,exit_time,"
