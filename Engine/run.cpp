@@ -24,7 +24,8 @@ namespace fs = std::filesystem;
 
 namespace {
 
-/// --timing: "  of which       8.31 s in steps (84 %), 1.52 s recording (15 %), 0.05 s other\n".
+/// --timing's line: "  of which       S s in steps (P %), R s recording (Q %), O s other\n", the parts
+/// of the loop's wall time (the rest: the loop's own bookkeeping and progress display).
 std::string timingLine(const ch::RunInfo& info) {
     const double wall = info.wallTimeSeconds;
     const double other = std::max(0.0, wall - info.stepSeconds - info.recordSeconds);

@@ -153,9 +153,9 @@ struct PanicEventSpec {
 };
 
 /// One agent of the scenario. The members are ordered by alignment, not by meaning (the 16-byte
-/// aligned vectors, then the 8-byte values, the strings, the 4-byte values, the byte), so that no padding is left
-/// between them: 256 bytes instead of 288, 32 MB less for a million agents, whose specs the
-/// simulation keeps.
+/// aligned vectors, then the 8-byte values, the strings, the 4-byte values, the byte), so that no
+/// padding is left between them: 256 bytes instead of 288, 32 MB less for a million agents, whose
+/// specs the simulation keeps.
 struct AgentSpec {
     Vec2 position{0, 0};        ///< m
     std::optional<Vec2> goal;   ///< m; absent: the agent stays where it is (UMANS warns)
