@@ -54,6 +54,25 @@ BOOST_AUTO_TEST_CASE(negative_coordinates_use_floor_not_truncation) {
     BOOST_TEST((grid.within({-1.0, 0.0}, 1.0) == std::vector<int>{0, 2}));
 }
 
+// The grids' cell lookups (and the navigation grid's probes) use floorToInt instead of
+// std::floor: the same cell for every coordinate, the awkward ones included.
+BOOST_AUTO_TEST_CASE(floor_to_int_is_floor_for_every_coordinate) {
+    const double awkward[] = {0.0, -0.0, 1.0, -1.0, 0.5, -0.5, 0.999999999999, -0.999999999999, 1e-300, -1e-300,
+                              std::nextafter(1.0, 0.0), std::nextafter(-1.0, 0.0), std::nextafter(-1.0, -2.0),
+                              4503599627370495.5 / 4503599627370496.0 * 1e6, -2147483647.5, -2147483648.0,
+                              2147483647.0, 2147483647.75, 123456.0, -123456.0, -123456.000001};
+    for (double x : awkward) BOOST_TEST(floorToInt(x) == static_cast<int>(std::floor(x)), "x = " << x);
+    Rng rng(7);
+    for (int k = 0; k < 100000; ++k) {
+        const double x = rng.uniform(-3000.0, 3000.0) * (k % 2 ? 1.0 : 1e-3);
+        BOOST_TEST_REQUIRE(floorToInt(x) == static_cast<int>(std::floor(x)), "x = " << x);
+        const double whole = std::round(x);  // exact integers and their neighbours in both directions
+        BOOST_TEST_REQUIRE(floorToInt(whole) == static_cast<int>(whole));
+        BOOST_TEST_REQUIRE(floorToInt(std::nextafter(whole, -kInf)) == static_cast<int>(whole) - 1);
+        BOOST_TEST_REQUIRE(floorToInt(std::nextafter(whole, kInf)) == static_cast<int>(whole));
+    }
+}
+
 BOOST_AUTO_TEST_CASE(toric_grid_finds_neighbours_across_the_border) {
     const double w = 20, h = 12;
     auto pts = randomPoints(800, -0.5, 0.5, 11);

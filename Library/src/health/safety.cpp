@@ -21,7 +21,7 @@ namespace ch {
 
 namespace {
 
-int cellIndex(double v, double c) { return static_cast<int>(std::floor(v / c)); }
+int cellIndex(double v, double c) { return floorToInt(v / c); }
 
 std::string fmt(double v, int digits = 3) { return formatNumber(v, digits); }
 

@@ -98,13 +98,13 @@ private:
     std::vector<double> sortedX_, sortedY_;  ///< points[sorted_[k]]: queries read positions contiguously
     std::vector<int> cellOf_, fill_;  ///< build scratch, kept to avoid allocating every step
 
-    int cellX(double x) const { return static_cast<int>(std::floor((x - origin_.x()) / cw_)); }
+    int cellX(double x) const { return floorToInt((x - origin_.x()) / cw_); }
     /// floor(v) for a cell coordinate, limited to [-1, n] (NaN gives -1) without calling floor.
     static int floorClamped(double v, int n) {
         if (!(v >= 0)) return -1;
         return v >= n ? n : static_cast<int>(v);
     }
-    int cellY(double y) const { return static_cast<int>(std::floor((y - origin_.y()) / ch_)); }
+    int cellY(double y) const { return floorToInt((y - origin_.y()) / ch_); }
 
     /// Cells touched by the query disc's bounding box (plane only), padded by 1 µm so that
     /// rounding never drops a point at exactly `radius`; x0 > x1 when it misses the grid.
