@@ -7,6 +7,7 @@
 
 #include "crowdhealth/core/simulation.h"
 #include "crowdhealth/io/xml.h"
+#include "crowdhealth/navigation/navigation.h"
 #include "scenario_files.h"
 
 #include <cstdlib>
@@ -163,6 +164,46 @@ BOOST_AUTO_TEST_CASE(agents_walk_round_the_end_of_a_long_wall_to_a_goal_behind_i
     BOOST_TEST(o.maxPenetration < 0.05);
     // The way round (about 2 × √(8² + 4²) ≈ 17.9 m at 1.3 m/s) takes at least 13 s.
     for (const auto& [id, t] : o.timeOf) BOOST_TEST(t > 13.0);
+}
+
+BOOST_AUTO_TEST_CASE(every_agent_is_sampled_at_its_own_place_in_an_update) {
+    // Navigation::update samples the fields in runs of agents (each position probed once for its
+    // prefetch and its sample). Whatever the run boundaries and the thread count, every agent
+    // must get the direction and the remaining distance of its own place: the values activation
+    // computes for one agent alone. 37 agents (not a whole number of runs), on open floor and
+    // beside the wall (the fields' general rules), some with a goal behind the wall and some in
+    // front of it.
+    std::string world = "<World type=\"Infinite\">\n<Navigation/>\n" + wall(-8, 0, 8, 0) + "</World>\n";
+    std::ostringstream agents;
+    for (int k = 0; k < 37; ++k)
+        agents << "<Agent rad=\"0.25\"><pos x=\"" << -9.0 + 0.5 * k << "\" y=\"" << -0.3 - 0.11 * (k % 9) << "\"/>"
+               << "<goal x=\"" << (k % 3 ? 0.0 : 6.0) << "\" y=\"" << (k % 2 ? 4.0 : -6.0) << "\"/><Policy id=\"0\"/></Agent>\n";
+    const Loaded l = load("runs.xml", simulation(world, agents.str(), 10));
+    BOOST_REQUIRE_MESSAGE(l.spec, l.messages);
+    const ScenarioSpec& spec = *l.spec;
+    const World w(spec.world, spec.obstacles);
+    Navigation nav(spec, w);
+    BOOST_REQUIRE(nav.grid() != nullptr);
+    // `moved`: every agent as activated at its place 1 m north-east of its spec's place (sampled
+    // one by one); `store`: activated at the spec's place, then moved there and updated.
+    AgentStore store, moved;
+    const Vec2 shift(0.7, 0.7);
+    for (std::size_t i = 0; i < spec.agents.size(); ++i) {
+        AgentSpec s = spec.agents[i];
+        store.add(s, 0);
+        nav.activated(store, i, s, 0.0);
+        s.position += shift;
+        moved.add(s, 0);
+        nav.activated(moved, i, s, 0.0);
+    }
+    for (std::size_t i = 0; i < store.size(); ++i) store.pos[i] += shift;
+    nav.update(store, 0.1, spec.seed);
+    for (std::size_t i = 0; i < store.size(); ++i) {
+        BOOST_TEST_REQUIRE(store.target[i] >= 0);
+        BOOST_TEST(store.navDistance[i] == moved.navDistance[i], "agent " << i);
+        BOOST_TEST((store.navDir[i] == moved.navDir[i]), "agent " << i);
+        BOOST_TEST(std::abs(store.navDir[i].norm() - 1.0) < 1e-12, "agent " << i);
+    }
 }
 
 // ---- exit choice ------------------------------------------------------------------------------

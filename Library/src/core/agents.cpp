@@ -71,9 +71,4 @@ void AgentStore::reserve(std::size_t n) {
     forEachColumn([n](auto& column) { column.reserve(n); });
 }
 
-bool AgentStore::atGoal(std::size_t i) const {
-    if (!hasGoal[i]) return true;
-    return (goal[i] - pos[i]).squaredNorm() <= goalRadius[i] * goalRadius[i];
-}
-
 }  // namespace ch

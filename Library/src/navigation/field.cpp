@@ -225,8 +225,8 @@ WalkableGrid::WalkableGrid(const World& world, const WalkableGridSettings& setti
 }
 
 void WalkableGrid::cellOf(const Vec2& p, int& ix, int& iy) const {
-    ix = static_cast<int>(std::floor((p.x() - origin_.x()) / h_));
-    iy = static_cast<int>(std::floor((p.y() - origin_.y()) / h_));
+    ix = floorToInt((p.x() - origin_.x()) / h_);
+    iy = floorToInt((p.y() - origin_.y()) / h_);
 }
 
 bool WalkableGrid::walkable(const Vec2& p) const {
@@ -537,49 +537,53 @@ Vec2 DistanceField::keepOffWalls(const Vec2& p, int ix, int iy, const Vec2& dir)
     return steepestNeighbour(p, ix, iy);
 }
 
-DistanceField::Block DistanceField::blockAround(const Vec2& p) const {
-    const WalkableGrid& g = *grid_;
-    const double h = g.cellSize();
-    Block b;
+WalkableGrid::Probe WalkableGrid::probe(const Vec2& p) const {
+    Probe q;
     // The same divisions serve cellOf's floor (p's own cell) and the interpolation, half a cell lower.
-    b.qx = (p.x() - g.origin().x()) / h;
-    b.qy = (p.y() - g.origin().y()) / h;
-    b.i0 = static_cast<int>(std::floor(b.qx - 0.5));
-    b.j0 = static_cast<int>(std::floor(b.qy - 0.5));
-    b.inGrid = b.i0 >= 1 && b.j0 >= 1 && b.i0 + 2 < g.nx() && b.j0 + 2 < g.ny();
-    b.row = b.inGrid ? &value_[static_cast<std::size_t>(g.index(b.i0 - 1, b.j0 - 1))] : nullptr;
-    return b;
+    q.qx = (p.x() - origin_.x()) / h_;
+    q.qy = (p.y() - origin_.y()) / h_;
+    q.cx = floorToInt(q.qx);
+    q.cy = floorToInt(q.qy);
+    q.i0 = floorToInt(q.qx - 0.5);
+    q.j0 = floorToInt(q.qy - 0.5);
+    q.inGrid = q.i0 >= 1 && q.j0 >= 1 && q.i0 + 2 < nx_ && q.j0 + 2 < ny_;
+    if (q.inGrid) {
+        q.first = static_cast<std::size_t>(index(q.i0 - 1, q.j0 - 1));
+        q.open = openFloor(q.cx, q.cy);
+    }
+    return q;
 }
 
 Vec2 DistanceField::sample(const Vec2& p, double& dist) const {
-    if (grid_ != nullptr && seeded_) {
-        const WalkableGrid& g = *grid_;
-        const double h = g.cellSize();
-        const Block b = blockAround(p);
-        const int cx = static_cast<int>(std::floor(b.qx)), cy = static_cast<int>(std::floor(b.qy));
+    if (grid_ != nullptr && seeded_) return sample(grid_->probe(p), p, dist);
+    dist = distance(p);
+    return direction(p);
+}
+
+Vec2 DistanceField::sample(const WalkableGrid::Probe& q, const Vec2& p, double& dist) const {
+    if (grid_ != nullptr && seeded_ && q.open) {
         // Open floor: the 4 × 4 block round p is walkable and in p's region (so reached when p's
         // cell is), and the general rules reduce to bilinear T and bilinearly blended central
         // differences. A block leaving the grid takes the general way.
-        if (g.openFloor(cx, cy) && b.inGrid) {
-            const int i0 = b.i0, j0 = b.j0;
-            const double tx = (b.qx - 0.5) - i0, ty = (b.qy - 0.5) - j0;
-            const std::size_t nx = static_cast<std::size_t>(g.nx());
-            const float* row = b.row;
-            double t[4][4];  // t[row][column] for cells (i0 − 1 … i0 + 2, j0 − 1 … j0 + 2)
-            for (int r = 0; r < 4; ++r, row += nx)
-                for (int c = 0; c < 4; ++c) t[r][c] = row[c];
-            // p's own cell is (i0 or i0 + 1, j0 or j0 + 1): unreached means no path from here.
-            if (std::isfinite(t[cy - j0 + 1][cx - i0 + 1])) {
-                const double w00 = (1 - tx) * (1 - ty), w10 = tx * (1 - ty), w01 = (1 - tx) * ty, w11 = tx * ty;
-                dist = w00 * t[1][1] + w10 * t[1][2] + w01 * t[2][1] + w11 * t[2][2];
-                if (dist >= 2.0 * h) {
-                    auto gx = [&](int r, int c) { return t[r][c + 1] - t[r][c - 1]; };
-                    auto gy = [&](int r, int c) { return t[r + 1][c] - t[r - 1][c]; };
-                    const Vec2 grad(w00 * gx(1, 1) + w10 * gx(1, 2) + w01 * gx(2, 1) + w11 * gx(2, 2),
-                                    w00 * gy(1, 1) + w10 * gy(1, 2) + w01 * gy(2, 1) + w11 * gy(2, 2));
-                    const Vec2 dir = normalisedOrZero(-grad);
-                    if (!dir.isZero()) return dir;
-                }
+        const double h = grid_->cellSize();
+        const int i0 = q.i0, j0 = q.j0;
+        const double tx = (q.qx - 0.5) - i0, ty = (q.qy - 0.5) - j0;
+        const std::size_t nx = static_cast<std::size_t>(grid_->nx());
+        const float* row = &value_[q.first];
+        double t[4][4];  // t[row][column] for cells (i0 − 1 … i0 + 2, j0 − 1 … j0 + 2)
+        for (int r = 0; r < 4; ++r, row += nx)
+            for (int c = 0; c < 4; ++c) t[r][c] = row[c];
+        // p's own cell is (i0 or i0 + 1, j0 or j0 + 1): unreached means no path from here.
+        if (std::isfinite(t[q.cy - j0 + 1][q.cx - i0 + 1])) {
+            const double w00 = (1 - tx) * (1 - ty), w10 = tx * (1 - ty), w01 = (1 - tx) * ty, w11 = tx * ty;
+            dist = w00 * t[1][1] + w10 * t[1][2] + w01 * t[2][1] + w11 * t[2][2];
+            if (dist >= 2.0 * h) {
+                auto gx = [&](int r, int c) { return t[r][c + 1] - t[r][c - 1]; };
+                auto gy = [&](int r, int c) { return t[r + 1][c] - t[r - 1][c]; };
+                const Vec2 grad(w00 * gx(1, 1) + w10 * gx(1, 2) + w01 * gx(2, 1) + w11 * gx(2, 2),
+                                w00 * gy(1, 1) + w10 * gy(1, 2) + w01 * gy(2, 1) + w11 * gy(2, 2));
+                const Vec2 dir = normalisedOrZero(-grad);
+                if (!dir.isZero()) return dir;
             }
         }
     }
@@ -587,12 +591,10 @@ Vec2 DistanceField::sample(const Vec2& p, double& dist) const {
     return direction(p);
 }
 
-void DistanceField::prefetch(const Vec2& p) const {
-    if (grid_ == nullptr || !seeded_) return;
-    const Block b = blockAround(p);
-    if (!b.inGrid) return;
+void DistanceField::prefetch(const WalkableGrid::Probe& q) const {
+    if (grid_ == nullptr || !seeded_ || !q.inGrid) return;
     const std::size_t nx = static_cast<std::size_t>(grid_->nx());
-    const float* row = b.row;
+    const float* row = &value_[q.first];
     for (int r = 0; r < 4; ++r, row += nx) {
         __builtin_prefetch(row);
         __builtin_prefetch(row + 3);  // the row's last cell, when the four straddle two cache lines

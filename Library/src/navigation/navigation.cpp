@@ -88,6 +88,7 @@ Navigation::Navigation(const ScenarioSpec& spec, const World& world) : spec_(spe
     for (const JourneySpec& j : venue.journeys) {
         std::vector<int> stages;
         for (const WaypointSpec& w : j.waypoints) stages.push_back(venue.targetIndex(w.target));
+        stageCount_.push_back(static_cast<int>(stages.size()));
         stageTarget_.push_back(std::move(stages));
     }
     for (const ExitEventSpec& e : venue.exitEvents) eventTarget_.push_back(venue.targetIndex(e.exit));
@@ -194,12 +195,19 @@ std::pair<Vec2, Vec2> navigationBounds(const ScenarioSpec& spec) {
 }
 
 Vec2 Navigation::directionTo(int target, const Vec2& p, double& distance) const {
-    const Target& t = targets_[static_cast<std::size_t>(target)];
-    if (!fields_.empty()) {
-        const Vec2 dir = fields_[static_cast<std::size_t>(target)].sample(p, distance);
-        if (std::isfinite(distance)) return dir;
-    }
+    if (!fields_.empty()) return directionTo(target, p, grid_->probe(p), distance);
+    return straightTo(target, p, distance);
+}
+
+Vec2 Navigation::directionTo(int target, const Vec2& p, const WalkableGrid::Probe& q, double& distance) const {
+    const Vec2 dir = fields_[static_cast<std::size_t>(target)].sample(q, p, distance);
+    if (std::isfinite(distance)) return dir;
+    return straightTo(target, p, distance);
+}
+
+Vec2 Navigation::straightTo(int target, const Vec2& p, double& distance) const {
     // No field (or p off the grid): straight at the nearest point of the target.
+    const Target& t = targets_[static_cast<std::size_t>(target)];
     const Vec2 c = t.shape.closest(p);
     distance = (c - p).norm();
     return normalisedOrZero(c - p);
@@ -418,7 +426,20 @@ void Navigation::chooseExit(AgentStore& a, std::size_t i, double t, std::uint64_
     int& current = a.target[i];
     // The path length to exit e from here: the agent's own, already sampled, for its current target.
     const int known = sampled ? current : -1;
-    auto pathTo = [&](int e) { return e >= 0 && e == known ? a.navDistance[i] : distanceTo(e, a.pos[i]); };
+    // Every exit's field is read at the same place: the grid is probed there once.
+    WalkableGrid::Probe probe;
+    bool probed = false;
+    auto pathTo = [&](int e) {
+        if (e >= 0 && e == known) return a.navDistance[i];
+        if (fields_.empty()) return distanceTo(e, a.pos[i]);
+        if (!probed) {
+            probe = grid_->probe(a.pos[i]);
+            probed = true;
+        }
+        double d = 0;
+        directionTo(e, a.pos[i], probe, d);
+        return d;
+    };
     if (openOnes.empty()) {
         // Nowhere to go yet: keep heading for the exit chosen (or the first), wait for a reopening.
         if (current < 0) current = candidates.front();
@@ -524,16 +545,29 @@ void Navigation::update(AgentStore& a, double t, std::uint64_t seed) {
         changed = true;
     }
 
-    // 2. Directions and remaining distances (each agent its own slot). The field cells of the
-    // agent kPrefetchAhead places on are requested first: agents sit in many different rows of a
-    // field, and the memory latency of one agent's rows is then hidden behind the work of others.
-    constexpr std::size_t kPrefetchAhead = 8;
+    // 2. Directions and remaining distances (each agent its own slot), in runs of kRun agents:
+    // every position of a run is probed on the grid (once for every field: they share it) and
+    // the field cells it needs are requested, then the run is sampled. Agents sit in many
+    // different rows of a field, and the memory latency of one agent's rows is then hidden behind
+    // the work of the others.
+    constexpr std::size_t kRun = 16;
+    const std::size_t runs = (n + kRun - 1) / kRun;
 #pragma omp parallel for schedule(static) if (parallelCheapLoop(n))
-    for (std::ptrdiff_t ii = 0; ii < static_cast<std::ptrdiff_t>(n); ++ii) {
-        const std::size_t i = static_cast<std::size_t>(ii);
-        if (!fields_.empty() && i + kPrefetchAhead < n && a.target[i + kPrefetchAhead] >= 0)
-            fields_[static_cast<std::size_t>(a.target[i + kPrefetchAhead])].prefetch(a.pos[i + kPrefetchAhead]);
-        if (a.target[i] >= 0) a.navDir[i] = directionTo(a.target[i], a.pos[i], a.navDistance[i]);
+    for (std::ptrdiff_t rr = 0; rr < static_cast<std::ptrdiff_t>(runs); ++rr) {
+        const std::size_t begin = static_cast<std::size_t>(rr) * kRun, end = std::min(n, begin + kRun);
+        if (fields_.empty()) {
+            for (std::size_t i = begin; i < end; ++i)
+                if (a.target[i] >= 0) a.navDir[i] = directionTo(a.target[i], a.pos[i], a.navDistance[i]);
+            continue;
+        }
+        WalkableGrid::Probe probes[kRun];
+        for (std::size_t i = begin; i < end; ++i) {
+            if (a.target[i] < 0) continue;
+            probes[i - begin] = grid_->probe(a.pos[i]);
+            fields_[static_cast<std::size_t>(a.target[i])].prefetch(probes[i - begin]);
+        }
+        for (std::size_t i = begin; i < end; ++i)
+            if (a.target[i] >= 0) a.navDir[i] = directionTo(a.target[i], a.pos[i], probes[i - begin], a.navDistance[i]);
     }
 
     // Per exit: the remaining distances of the people heading there, sorted (the quickest rule's
@@ -611,11 +645,6 @@ void Navigation::update(AgentStore& a, double t, std::uint64_t seed) {
         for (std::size_t m = 0; m < waiting.size() && used < cap; ++m, ++used)
             a.navFlags[waiting[m]] = static_cast<unsigned char>(a.navFlags[waiting[m]] | kAdmitted);
     }
-}
-
-bool Navigation::leaving(const AgentStore& a, std::size_t i) const {
-    const int j = a.journey[i];
-    return j >= 0 && static_cast<std::size_t>(a.stage[i]) >= spec_.venue.journeys[static_cast<std::size_t>(j)].waypoints.size();
 }
 
 void Navigation::advance(AgentStore& a, std::size_t i, double t, std::uint64_t seed) {

@@ -61,7 +61,10 @@ struct AgentStore {
     /// Removes every agent i with remove[i] != 0, keeping the order of the others.
     void removeMarked(const std::vector<unsigned char>& remove);
     /// True when agent i is within its goal radius of its goal.
-    bool atGoal(std::size_t i) const;
+    bool atGoal(std::size_t i) const {
+        if (!hasGoal[i]) return true;
+        return (goal[i] - pos[i]).squaredNorm() <= goalRadius[i] * goalRadius[i];
+    }
     /// Re-orders every column: agent k of the result is agent order[k] of now (a permutation).
     void permute(const std::vector<int>& order);
     /// Room for n agents in every column (one allocation each instead of repeated doubling).

@@ -103,6 +103,19 @@ public:
         return inGrid(ix, iy) && ((openBits_[k >> 6] >> (k & 63)) & 1u) != 0;
     }
 
+    /// Where DistanceField::sample reads round a point p, worked out once for every field on this
+    /// grid (the fields of one venue share it): p in cell units, p's cell, and the 4 × 4 block of
+    /// cell centres (i0 − 1 … i0 + 2, j0 − 1 … j0 + 2) whose inner four surround p.
+    struct Probe {
+        double qx = 0, qy = 0;  ///< p − origin, in cells
+        int cx = 0, cy = 0;     ///< p's cell
+        int i0 = 0, j0 = 0;     ///< the lower-left of the four centres round p
+        bool inGrid = false;    ///< the whole block lies on the grid
+        bool open = false;      ///< inGrid and p's cell is openFloor(): sample's short way applies
+        std::size_t first = 0;  ///< index() of the block's first cell (i0 − 1, j0 − 1) when inGrid
+    };
+    Probe probe(const Vec2& p) const;
+
 private:
     WalkableGridSettings settings_;
     Vec2 origin_{0, 0};
@@ -131,9 +144,13 @@ public:
     /// open floor (no wall within a few cells) it reads the 4 × 4 cells round p once instead of
     /// applying the rules near walls (the same values up to rounding).
     Vec2 sample(const Vec2& p, double& dist) const;
+    /// sample(p, dist) with q = grid().probe(p) already worked out: a loop over agents probes each
+    /// position once for its prefetch and its sample, and an agent weighing several exits probes
+    /// once for all their fields. The same results as sample(p, dist), bit for bit.
+    Vec2 sample(const WalkableGrid::Probe& q, const Vec2& p, double& dist) const;
     /// Asks the processor to fetch the cells sample(p) reads on open floor (no effect on results):
-    /// a loop over agents calls it a few agents ahead.
-    void prefetch(const Vec2& p) const;
+    /// a loop over agents calls it a few agents ahead, with q = grid().probe(p).
+    void prefetch(const WalkableGrid::Probe& q) const;
     /// T at a cell centre (+inf: blocked or unreachable).
     float value(int ix, int iy) const { return value_[static_cast<std::size_t>(grid_->index(ix, iy))]; }
     /// True when at least one cell was seeded (the target touches walkable floor).
@@ -141,15 +158,6 @@ public:
     const WalkableGrid& grid() const { return *grid_; }
 
 private:
-    /// Where sample(p) reads on open floor: p in cell units (qx, qy) and the 4 × 4 block of cells
-    /// (i0 − 1 … i0 + 2, j0 − 1 … j0 + 2) whose inner four centres surround p.
-    struct Block {
-        double qx, qy;
-        int i0, j0;
-        bool inGrid;           ///< the whole block lies on the grid
-        const float* row;      ///< T of the block's first row (rows nx apart); null when !inGrid
-    };
-    Block blockAround(const Vec2& p) const;
     /// Gradient of T at a reached cell centre (central differences, one-sided next to blocked or
     /// unreached cells); false when no neighbour along either axis is usable.
     bool cellGradient(int ix, int iy, Vec2& g) const;

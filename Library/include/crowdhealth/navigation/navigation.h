@@ -121,6 +121,7 @@ private:
     std::vector<std::vector<double>> setWeights_;  ///< per exit set: its exits' weights (default 1)
     std::vector<int> setFixed_;                  ///< per exit set: the target of its fixed exit (-1 none)
     std::vector<std::vector<int>> stageTarget_;  ///< per journey: each waypoint's target
+    std::vector<int> stageCount_;                ///< per journey: its number of waypoints
     std::vector<int> eventTarget_;               ///< per exit event: the exit's target
     std::vector<int> openOnes_;                  ///< chooseExit's scratch: the open candidates
     std::vector<double> openWeights_;            ///< and their weights
@@ -150,14 +151,23 @@ private:
     bool placeNear(const AgentStore& agents, const std::vector<std::pair<Vec2, double>>& placed, AgentSpec& s,
                    const Vec2& anchor, std::uint64_t seed, std::uint64_t step) const;
     /// True when agent i has passed every waypoint of its journey (heading for an exit or done).
-    bool leaving(const AgentStore& a, std::size_t i) const;
+    bool leaving(const AgentStore& a, std::size_t i) const {
+        const int j = a.journey[i];
+        return j >= 0 && a.stage[i] >= stageCount_[static_cast<std::size_t>(j)];
+    }
     /// Agent i goes on from its current waypoint to the next stage.
     void advance(AgentStore& a, std::size_t i, double t, std::uint64_t seed);
     /// Chooses agent i's exit by its journey's rule (a weighted choice stands while its exit is open).
     /// `sampled`: a.navDir[i] and a.navDistance[i] already hold directionTo(a.target[i], a.pos[i])
     /// (update's step 2), which the choice then reads instead of sampling the field again.
     void chooseExit(AgentStore& a, std::size_t i, double t, std::uint64_t seed, bool sampled = false);
+    /// Direction of the path from p to `target` and its remaining length in `distance`: along
+    /// the target's field, or straight at the target without one (or off the grid).
     Vec2 directionTo(int target, const Vec2& p, double& distance) const;
+    /// The same with p already probed on the grid (q = grid_->probe(p)); only with fields.
+    Vec2 directionTo(int target, const Vec2& p, const WalkableGrid::Probe& q, double& distance) const;
+    /// Straight at the nearest point of the target (no field, or p off the grid).
+    Vec2 straightTo(int target, const Vec2& p, double& distance) const;
 };
 
 }  // namespace ch
