@@ -99,8 +99,8 @@ Box sceneBounds(const ch::ScenarioSpec& spec) {
     }
     for (const ch::TargetSpec& t : spec.venue.targets) {  // targets and exits of a venue
         const auto b = t.shape.bounds();
-        add(b.first);
-        add(b.second);
+        add(b.lo);
+        add(b.hi);
     }
     if (spec.world.type == ch::WorldType::Planar) {
         add({spec.world.xmin, spec.world.ymin});

@@ -1,7 +1,9 @@
-// The neighbour grids return exactly the brute-force neighbour sets.
+// The neighbour grids return exactly the brute-force neighbour sets; the cell lookups' floor and
+// the bounding boxes (core/geometry.h's Box) the grids and venues test before exact shapes.
 #define BOOST_TEST_MODULE core_grid
 #include <boost/test/unit_test.hpp>
 
+#include "crowdhealth/core/geometry.h"
 #include "crowdhealth/core/grid.h"
 #include "crowdhealth/core/rng.h"
 
@@ -70,6 +72,43 @@ BOOST_AUTO_TEST_CASE(floor_to_int_is_floor_for_every_coordinate) {
         BOOST_TEST_REQUIRE(floorToInt(whole) == static_cast<int>(whole));
         BOOST_TEST_REQUIRE(floorToInt(std::nextafter(whole, -kInf)) == static_cast<int>(whole) - 1);
         BOOST_TEST_REQUIRE(floorToInt(std::nextafter(whole, kInf)) == static_cast<int>(whole));
+    }
+}
+
+// Box: the quick test in front of a polygon's (venue exits, measurement areas, source areas) and
+// of a line crossing (measurement lines). Closed on every side, and a point outside a polygon's
+// box is outside the polygon.
+BOOST_AUTO_TEST_CASE(boxes_hold_their_points_and_reject_the_rest) {
+    const std::vector<Vec2> l = {{0, 0}, {4, 0}, {4, 1}, {1, 1}, {1, 3}, {0, 3}};  // an L
+    const Box b = Box::around(l);
+    BOOST_TEST((b.lo == Vec2(0, 0)));
+    BOOST_TEST((b.hi == Vec2(4, 3)));
+    BOOST_TEST(Box().empty());
+    BOOST_TEST(!Box().contains(Vec2(0, 0)));
+    BOOST_TEST(!b.empty());
+    for (const Vec2& corner : {Vec2(0, 0), Vec2(4, 0), Vec2(4, 3), Vec2(0, 3)}) BOOST_TEST(b.contains(corner));
+    for (const Vec2& out : {Vec2(-1e-12, 1), Vec2(4 + 1e-12, 1), Vec2(2, -1e-12), Vec2(2, 3 + 1e-12)})
+        BOOST_TEST(!b.contains(out));
+    BOOST_TEST(!b.contains(Vec2(std::nan(""), 1)));
+    // Corners given in any order span the same box; grown widens every side.
+    const Box s(Vec2(3, -1), Vec2(-2, 5));
+    BOOST_TEST((s.lo == Vec2(-2, -1)));
+    BOOST_TEST((s.hi == Vec2(3, 5)));
+    const Box g = b.grown(0.5);
+    BOOST_TEST((g.lo == Vec2(-0.5, -0.5)));
+    BOOST_TEST((g.hi == Vec2(4.5, 3.5)));
+    // Overlap: sharing an edge counts, a gap on either axis does not, and it is symmetric.
+    const Box right(Vec2(4, 2), Vec2(6, 5)), apartX(Vec2(4.001, 0), Vec2(6, 1)), apartY(Vec2(1, 3.001), Vec2(2, 4));
+    const Box inside(Vec2(1, 1), Vec2(2, 2)), across(Vec2(-1, 1), Vec2(5, 2));
+    for (const auto& [o, meet] : {std::pair{right, true}, {apartX, false}, {apartY, false}, {inside, true}, {across, true}}) {
+        BOOST_TEST(b.overlaps(o) == meet);
+        BOOST_TEST(o.overlaps(b) == meet);
+    }
+    // The box never rejects a point of its polygon.
+    Rng rng(11);
+    for (int k = 0; k < 20000; ++k) {
+        const Vec2 p(rng.uniform(-1.0, 5.0), rng.uniform(-1.0, 4.0));
+        if (pointInPolygon(p, l)) BOOST_TEST_REQUIRE(b.contains(p));
     }
 }
 

@@ -657,8 +657,8 @@ void checkVenue(LoadContext& ctx) {
             const TargetSpec& t = venue.targets[k];
             const auto b = t.shape.bounds();
             int i0, j0, i1, j1;
-            grid.cellOf(b.first - Vec2(search, search), i0, j0);
-            grid.cellOf(b.second + Vec2(search, search), i1, j1);
+            grid.cellOf(b.lo - Vec2(search, search), i0, j0);
+            grid.cellOf(b.hi + Vec2(search, search), i1, j1);
             for (int iy = std::max(0, j0); iy <= std::min(grid.ny() - 1, j1); ++iy)
                 for (int ix = std::max(0, i0); ix <= std::min(grid.nx() - 1, i1); ++ix)
                     if (grid.walkable(ix, iy) && t.shape.distance(grid.centre(ix, iy)) <= search)

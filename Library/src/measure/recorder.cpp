@@ -49,8 +49,7 @@ MeasurementRecorder::MeasurementRecorder(const ScenarioSpec& spec, std::vector<d
         l.a = m.a;
         l.b = m.b;
         l.length = std::max(1e-9, m.length());
-        l.lo = l.a.cwiseMin(l.b) - Vec2(kCrossingMargin, kCrossingMargin);
-        l.hi = l.a.cwiseMax(l.b) + Vec2(kCrossingMargin, kCrossingMargin);
+        l.bounds = Box(l.a, l.b).grown(kCrossingMargin);
         lines_.push_back(std::move(l));
     }
     if (!lines_.empty()) {
@@ -74,9 +73,9 @@ MeasurementRecorder::MeasurementRecorder(const ScenarioSpec& spec, std::vector<d
         l.name = t.name;
         l.exit = true;
         l.target = static_cast<int>(k);
-        const auto box = t.shape.bounds();
-        l.a = box.first;
-        l.b = box.second;
+        const Box box = t.shape.bounds();
+        l.a = box.lo;
+        l.b = box.hi;
         l.length = k < exitWidths.size() && exitWidths[k] > 0 ? exitWidths[k] : (t.width > 0 ? t.width : 1.0);
         exits_.push_back(std::move(l));
     }
@@ -85,12 +84,7 @@ MeasurementRecorder::MeasurementRecorder(const ScenarioSpec& spec, std::vector<d
         a.name = m.name;
         a.polygon = m.polygon;
         a.area = std::abs(polygonArea(m.polygon));
-        a.lo = Vec2(kInf, kInf);
-        a.hi = Vec2(-kInf, -kInf);
-        for (const Vec2& p : m.polygon) {
-            a.lo = a.lo.cwiseMin(p);
-            a.hi = a.hi.cwiseMax(p);
-        }
+        a.bounds = Box::around(m.polygon);
         areas_.push_back(std::move(a));
     }
     flowRows_.resize(lines_.size() + exits_.size());
@@ -142,9 +136,9 @@ void MeasurementRecorder::record(const AgentStore& agents, double t, const std::
     // Lines: each agent's straight move since the last record.
     if (!lines_.empty()) {
         auto move = [&](const Vec2& from, const Vec2& to) {
-            const Vec2 lo = from.cwiseMin(to), hi = from.cwiseMax(to);
+            const Box path(from, to);
             for (Line& l : lines_) {
-                if (hi.x() < l.lo.x() || lo.x() > l.hi.x() || hi.y() < l.lo.y() || lo.y() > l.hi.y()) continue;
+                if (!l.bounds.overlaps(path)) continue;
                 if (const int c = crossing(l.a, l.b, from, to); c != 0) countCrossing(l, c, t);
             }
         };
@@ -190,8 +184,7 @@ void MeasurementRecorder::record(const AgentStore& agents, double t, const std::
         double speed = 0;
         for (std::size_t i = 0; i < agents.size(); ++i) {
             const Vec2& p = agents.pos[i];
-            if (p.x() < a.lo.x() || p.x() > a.hi.x() || p.y() < a.lo.y() || p.y() > a.hi.y()) continue;
-            if (!pointInPolygon(p, a.polygon)) continue;
+            if (!a.bounds.contains(p) || !pointInPolygon(p, a.polygon)) continue;
             ++people;
             speed += agents.vel[i].norm();
         }
@@ -325,10 +318,10 @@ std::vector<VerdictReason> MeasurementRecorder::reasons() const {
         c /= static_cast<double>(std::max<std::size_t>(1, a.polygon.size()));
         r.x = c.x();
         r.y = c.y();
-        r.xmin = a.lo.x();
-        r.xmax = a.hi.x();
-        r.ymin = a.lo.y();
-        r.ymax = a.hi.y();
+        r.xmin = a.bounds.lo.x();
+        r.xmax = a.bounds.hi.x();
+        r.ymin = a.bounds.lo.y();
+        r.ymax = a.bounds.hi.y();
         r.text = "area '" + a.name + "' at Fruin's level of service F (density above " + number(r.threshold, 3) +
                  " persons/m2) for " + number(a.longest, 3) + " s from t = " + number(a.first, 4) + " s; peak " +
                  number(a.peak, 3) + " persons/m2";

@@ -87,14 +87,9 @@ Vec2 TargetShape::centre() const {
     return c / static_cast<double>(polygon.size());
 }
 
-std::pair<Vec2, Vec2> TargetShape::bounds() const {
-    if (kind == Kind::Point || polygon.empty()) return {point - Vec2(radius, radius), point + Vec2(radius, radius)};
-    Vec2 lo = polygon[0], hi = polygon[0];
-    for (const Vec2& v : polygon) {
-        lo = lo.cwiseMin(v);
-        hi = hi.cwiseMax(v);
-    }
-    return {lo, hi};
+Box TargetShape::bounds() const {
+    if (kind == Kind::Point || polygon.empty()) return Box(point - Vec2(radius, radius), point + Vec2(radius, radius));
+    return Box::around(polygon);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -284,7 +279,7 @@ DistanceField::DistanceField(const WalkableGrid& grid, const TargetShape& target
 
     // Seeds: walkable cells whose centre is inside the target or within 1.5 cells of it.
     const double seedRadius = 1.5 * h;
-    auto [blo, bhi] = target.bounds();
+    const auto [blo, bhi] = target.bounds();
     int ix0, iy0, ix1, iy1;
     grid.cellOf(blo - Vec2(seedRadius, seedRadius), ix0, iy0);
     grid.cellOf(bhi + Vec2(seedRadius, seedRadius), ix1, iy1);

@@ -33,15 +33,13 @@ struct Navigation::Target {
     bool exit = false;
     double width = 1.0;
     int capacity = 0;  ///< checkpoint places (0 = unlimited), from the journeys' waypoints
-    Vec2 lo{0, 0}, hi{0, 0};  ///< a polygon's bounds (shape.bounds())
+    Box box;  ///< a polygon's bounds (shape.bounds())
 
     /// shape.contains(p), with the polygon test skipped for a point outside the polygon's bounds
     /// (the even-odd test gives false there too: no edge crosses its row to the point's left an
     /// odd number of times). Per agent and step, for every exit of its set (Navigation::leaves).
     bool contains(const Vec2& p) const {
-        if (shape.kind == TargetShape::Kind::Polygon &&
-            (p.x() < lo.x() || p.x() > hi.x() || p.y() < lo.y() || p.y() > hi.y()))
-            return false;
+        if (shape.kind == TargetShape::Kind::Polygon && !box.contains(p)) return false;
         return shape.contains(p);
     }
 };
@@ -70,7 +68,7 @@ Navigation::Navigation(const ScenarioSpec& spec, const World& world) : spec_(spe
             target.width = w;
         }
         if (t.shape.kind == TargetShape::Kind::Polygon && !t.shape.polygon.empty())
-            std::tie(target.lo, target.hi) = t.shape.bounds();
+            target.box = t.shape.bounds();
         targets_.push_back(std::move(target));
     }
     open_.assign(targets_.size(), 1);
@@ -169,17 +167,14 @@ int Navigation::goalTarget(const Vec2& goal) const {
 std::pair<Vec2, Vec2> navigationBounds(const ScenarioSpec& spec) {
     if (spec.world.type == WorldType::Planar)
         return {Vec2(spec.world.xmin, spec.world.ymin), Vec2(spec.world.xmax, spec.world.ymax)};
-    Vec2 lo(kInf, kInf), hi(-kInf, -kInf);
-    auto grow = [&](const Vec2& p) {
-        lo = lo.cwiseMin(p);
-        hi = hi.cwiseMax(p);
-    };
+    Box box;
+    auto grow = [&](const Vec2& p) { box.add(p); };
     for (const ObstacleSpec& o : spec.obstacles)
         for (const Vec2& p : o.points) grow(p);
     for (const TargetSpec& t : spec.venue.targets) {
-        const auto b = t.shape.bounds();
-        grow(b.first);
-        grow(b.second);
+        const Box b = t.shape.bounds();
+        grow(b.lo);
+        grow(b.hi);
     }
     for (const AgentSpec& a : spec.agents) {
         if (a.source < 0) grow(a.position);  // a source's agents: its area, below
@@ -189,9 +184,9 @@ std::pair<Vec2, Vec2> navigationBounds(const ScenarioSpec& spec) {
         for (const Vec2& p : s.area) grow(p);
         if (s.goal) grow(*s.goal);
     }
-    if (!std::isfinite(lo.x())) lo = hi = Vec2(0, 0);
-    const double m = spec.venue.navigation ? spec.venue.navigation->margin : NavigationSpec{}.margin;
-    return {lo - Vec2(m, m), hi + Vec2(m, m)};
+    if (!std::isfinite(box.lo.x())) box = Box(Vec2(0, 0), Vec2(0, 0));
+    const Box grid = box.grown(spec.venue.navigation ? spec.venue.navigation->margin : NavigationSpec{}.margin);
+    return {grid.lo, grid.hi};
 }
 
 Vec2 Navigation::directionTo(int target, const Vec2& p, double& distance) const {
@@ -267,19 +262,13 @@ bool Navigation::freeAt(const Vec2& p, double radius, const std::vector<std::pai
 bool Navigation::place(const AgentStore& agents, const std::vector<std::pair<Vec2, double>>& placed, AgentSpec& s,
                        std::uint64_t seed, std::uint64_t step) const {
     const SourceSpec& src = spec_.venue.sources[static_cast<std::size_t>(s.source)];
-    Vec2 lo(kInf, kInf), hi(-kInf, -kInf);
-    for (const Vec2& p : src.area) {
-        lo = lo.cwiseMin(p);
-        hi = hi.cwiseMax(p);
-    }
+    const Box area = Box::around(src.area);
+    const Vec2 &lo = area.lo, &hi = area.hi;
     // The people already near the area: one pass over the crowd, then the attempts test only them.
-    const double reach = s.radius + 1.0;
+    const Box reach = area.grown(s.radius + 1.0);
     std::vector<std::pair<Vec2, double>> near;
-    for (std::size_t j = 0; j < agents.size(); ++j) {
-        const Vec2& q = agents.pos[j];
-        if (q.x() >= lo.x() - reach && q.x() <= hi.x() + reach && q.y() >= lo.y() - reach && q.y() <= hi.y() + reach)
-            near.push_back({q, agents.radius[j]});
-    }
+    for (std::size_t j = 0; j < agents.size(); ++j)
+        if (reach.contains(agents.pos[j])) near.push_back({agents.pos[j], agents.radius[j]});
     for (const auto& p : placed) near.push_back(p);
     Rng rng(seed, static_cast<std::uint64_t>(s.id), kStreamSource, step + 1);
     constexpr int kAttempts = 40;

@@ -13,6 +13,39 @@ struct Segment {
     int obstacle = -1;
 };
 
+/// An axis-aligned box [lo, hi] (closed), empty until a point is added: the bounds of a shape,
+/// tested before the shape's exact test (a point outside a polygon's box is outside the polygon).
+struct Box {
+    Vec2 lo{kInf, kInf}, hi{-kInf, -kInf};
+
+    Box() = default;
+    /// The box spanned by two corners, in any order.
+    Box(const Vec2& a, const Vec2& b) : lo(a.cwiseMin(b)), hi(a.cwiseMax(b)) {}
+    /// The smallest box holding every point (empty for none).
+    static Box around(const std::vector<Vec2>& points) {
+        Box b;
+        for (const Vec2& p : points) b.add(p);
+        return b;
+    }
+    void add(const Vec2& p) {
+        lo = lo.cwiseMin(p);
+        hi = hi.cwiseMax(p);
+    }
+    bool empty() const { return !(lo.x() <= hi.x() && lo.y() <= hi.y()); }
+    /// The box widened by m on every side.
+    Box grown(double m) const {
+        Box b;
+        b.lo = lo - Vec2(m, m);
+        b.hi = hi + Vec2(m, m);
+        return b;
+    }
+    bool contains(const Vec2& p) const { return p.x() >= lo.x() && p.x() <= hi.x() && p.y() >= lo.y() && p.y() <= hi.y(); }
+    /// True when the two boxes share a point (touching counts).
+    bool overlaps(const Box& o) const {
+        return o.hi.x() >= lo.x() && o.lo.x() <= hi.x() && o.hi.y() >= lo.y() && o.lo.y() <= hi.y();
+    }
+};
+
 /// Closest point to p on segment [a, b].
 Vec2 closestPointOnSegment(const Vec2& p, const Vec2& a, const Vec2& b);
 /// Squared distance from p to segment [a, b].

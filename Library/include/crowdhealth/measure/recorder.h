@@ -9,6 +9,7 @@
 // every coarse step.
 #pragma once
 
+#include "crowdhealth/core/geometry.h"
 #include "crowdhealth/core/scenario.h"
 #include "crowdhealth/health/safety.h"
 #include "crowdhealth/measure/measurement.h"
@@ -95,13 +96,13 @@ private:
         std::size_t peakCount = 0;  ///< most crossings within one window
         double heldSince = -1, longest = 0, first = -1;  ///< above capacity
         double peak = 0;            ///< highest windowed specific flow (P/(m·s))
-        Vec2 lo{0, 0}, hi{0, 0};    ///< bounds of a → b, widened by kCrossingMargin
+        Box bounds;                 ///< of a → b, widened by kCrossingMargin
     };
     struct Area {
         std::string name;
         std::vector<Vec2> polygon;
         double area;
-        Vec2 lo, hi;
+        Box bounds;
         double sumDensity = 0, sumSpeed = 0, sumFlow = 0, sumPeople = 0;
         int samples = 0, occupied = 0;  ///< records in the interval; those with someone inside
         double heldSince = -1, longest = 0, first = -1, peak = 0;

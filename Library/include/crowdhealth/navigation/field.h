@@ -58,8 +58,8 @@ struct TargetShape {
     Vec2 closest(const Vec2& p) const;
     /// A representative point: the point, or the polygon's vertex mean.
     Vec2 centre() const;
-    /// Axis-aligned bounds (min, max) of the shape (a point: ± radius).
-    std::pair<Vec2, Vec2> bounds() const;
+    /// Axis-aligned bounds of the shape (a point: ± radius).
+    Box bounds() const;
 };
 
 /// The venue rasterised: which cells are walkable and how fast travel is in each.
