@@ -33,6 +33,36 @@ BOOST_AUTO_TEST_CASE(format_is_compiler_style) {
                "a.xml: error: cannot find file 'a.xml'");
 }
 
+// A location's file name is held once for all its copies (a million agents' specs carry one):
+// equal names share one string, whichever thread made them, and it reads as the name itself.
+BOOST_AUTO_TEST_CASE(file_names_are_shared_and_read_as_the_name) {
+    const std::string path = "a/directory/name/longer/than/the/inline/buffer/scene.xml";
+    const FileName a(path), b(std::string(path.c_str())), c("other.xml");
+    // The same string, not two equal ones (addresses: BOOST_TEST compares C strings by content).
+    auto at = [](const FileName& f) { return static_cast<const void*>(f.c_str()); };
+    BOOST_TEST(at(a) == at(b));
+    BOOST_TEST(at(a) != at(c));
+    BOOST_TEST(a.str() == path);
+    BOOST_TEST((a == b));
+    BOOST_TEST(!(a == c));
+    BOOST_TEST((a == path));
+    const SourceLoc loc{a, 7}, copy = loc;
+    BOOST_TEST(at(copy.file) == at(a));
+    BOOST_TEST(FileName().empty());
+    BOOST_TEST(FileName("").empty());
+    BOOST_TEST(FileName().str() == "");
+    BOOST_TEST(c + ":" + std::to_string(3) == "other.xml:3");
+    BOOST_TEST("in " + c == "in other.xml");
+    std::ostringstream out;
+    out << c << ':' << 4;
+    BOOST_TEST(out.str() == "other.xml:4");
+    // Made from many threads at once: still one string per name.
+    std::vector<const void*> seen(64, nullptr);
+#pragma omp parallel for
+    for (int k = 0; k < 64; ++k) seen[static_cast<std::size_t>(k)] = at(FileName("threads/" + std::to_string(k % 4) + ".xml"));
+    for (int k = 0; k < 64; ++k) BOOST_TEST(seen[static_cast<std::size_t>(k)] == seen[static_cast<std::size_t>(k % 4)]);
+}
+
 BOOST_AUTO_TEST_CASE(collects_everything_in_order) {
     Diagnostics d;
     BOOST_TEST(!d.hasErrors());

@@ -3,9 +3,29 @@
 
 #include <algorithm>
 #include <cctype>
+#include <mutex>
 #include <ostream>
+#include <unordered_set>
 
 namespace ch {
+
+FileName::FileName(const std::string& name) {
+    if (name.empty()) return;
+    // The pool of every name seen: a few per run (the scenario, its included files, command-line
+    // sources). Never freed, not even at exit, so the pointers stay valid however locations are
+    // copied, static ones included; the elements of an unordered_set never move.
+    static std::mutex mutex;
+    static auto* const pool = new std::unordered_set<std::string>;
+    const std::lock_guard<std::mutex> lock(mutex);
+    name_ = &*pool->insert(name).first;
+}
+
+const std::string& FileName::none() {
+    static const std::string empty;
+    return empty;
+}
+
+std::ostream& operator<<(std::ostream& out, const FileName& f) { return out << f.str(); }
 
 std::string Diagnostic::format() const {
     // Compiler style so editors and CI logs can jump straight to the line.
