@@ -1207,6 +1207,24 @@ int main(int argc, char** argv) {
     }
     std::printf("other = the step's time outside the phases above (mean step - their sum): the health layer's "
                 "endStep (crush, injuries, falls, heading change), state swaps, the schedule\n");
+    // Navigation's share of a 10k step (issue 20): what a hall with navigation spends in the
+    // "preferred" and "removal" phases (directions, arrivals, exit choices, leaving) beyond the
+    // same hall without it, with the same threads.
+    auto navigationPhases = [](const Result& r) {
+        return r.phaseMs[static_cast<std::size_t>(Simulation::Phase::Preferred)] +
+               r.phaseMs[static_cast<std::size_t>(Simulation::Phase::Removal)];
+    };
+    for (const Result& r : results) {
+        if (std::strcmp(r.kind, "step") != 0 || std::strncmp(r.scene, "sf-hall-", 8) != 0) continue;
+        for (const Result& bare : results)
+            if (std::strcmp(bare.kind, "step") == 0 && std::strcmp(bare.scene, "sf-hall") == 0 &&
+                bare.threads == r.threads && r.msMedian > 0) {
+                const double nav = navigationPhases(r) - navigationPhases(bare);
+                std::printf("navigation of %-16s %3.0f thr: %.3f ms per step, %.1f %% of its median step "
+                            "(preferred + removal beyond sf-hall's)\n",
+                            r.scene, r.threads, nav, 100.0 * nav / r.msMedian);
+            }
+    }
     std::printf("\nlimit = tight SPH kernel loop (density + pressure force) over precomputed neighbour lists "
                 "for the same agents and threads; pairs/agent = ordered pairs within h per agent\n");
     for (const Result& r : results)
