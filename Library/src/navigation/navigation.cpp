@@ -86,7 +86,6 @@ Navigation::Navigation(const ScenarioSpec& spec, const World& world) : spec_(spe
     for (const JourneySpec& j : venue.journeys) {
         std::vector<int> stages;
         for (const WaypointSpec& w : j.waypoints) stages.push_back(venue.targetIndex(w.target));
-        stageCount_.push_back(static_cast<int>(stages.size()));
         stageTarget_.push_back(std::move(stages));
     }
     for (const ExitEventSpec& e : venue.exitEvents) eventTarget_.push_back(venue.targetIndex(e.exit));
@@ -263,7 +262,6 @@ bool Navigation::place(const AgentStore& agents, const std::vector<std::pair<Vec
                        std::uint64_t seed, std::uint64_t step) const {
     const SourceSpec& src = spec_.venue.sources[static_cast<std::size_t>(s.source)];
     const Box area = Box::around(src.area);
-    const Vec2 &lo = area.lo, &hi = area.hi;
     // The people already near the area: one pass over the crowd, then the attempts test only them.
     const Box reach = area.grown(s.radius + 1.0);
     std::vector<std::pair<Vec2, double>> near;
@@ -273,7 +271,7 @@ bool Navigation::place(const AgentStore& agents, const std::vector<std::pair<Vec
     Rng rng(seed, static_cast<std::uint64_t>(s.id), kStreamSource, step + 1);
     constexpr int kAttempts = 40;
     for (int k = 0; k < kAttempts; ++k) {
-        const Vec2 p(rng.uniform(lo.x(), hi.x()), rng.uniform(lo.y(), hi.y()));
+        const Vec2 p(rng.uniform(area.lo.x(), area.hi.x()), rng.uniform(area.lo.y(), area.hi.y()));
         if (!pointInPolygon(p, src.area)) continue;
         if (!freeAt(p, s.radius, near)) continue;
         s.position = p;

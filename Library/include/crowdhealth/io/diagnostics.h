@@ -23,7 +23,7 @@ public:
     bool empty() const { return str().empty(); }
     const char* c_str() const { return str().c_str(); }
 
-    friend bool operator==(const FileName& a, const FileName& b) { return a.name_ == b.name_ || a.str() == b.str(); }
+    friend bool operator==(const FileName& a, const FileName& b) { return a.name_ == b.name_; }  // interned
     friend bool operator==(const FileName& a, const std::string& b) { return a.str() == b; }
     friend bool operator==(const FileName& a, const char* b) { return a.str() == b; }
     friend std::string operator+(const FileName& a, const std::string& b) { return a.str() + b; }

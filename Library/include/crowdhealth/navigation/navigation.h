@@ -121,7 +121,6 @@ private:
     std::vector<std::vector<double>> setWeights_;  ///< per exit set: its exits' weights (default 1)
     std::vector<int> setFixed_;                  ///< per exit set: the target of its fixed exit (-1 none)
     std::vector<std::vector<int>> stageTarget_;  ///< per journey: each waypoint's target
-    std::vector<int> stageCount_;                ///< per journey: its number of waypoints
     std::vector<int> eventTarget_;               ///< per exit event: the exit's target
     std::vector<int> openOnes_;                  ///< chooseExit's scratch: the open candidates
     std::vector<double> openWeights_;            ///< and their weights
@@ -153,7 +152,7 @@ private:
     /// True when agent i has passed every waypoint of its journey (heading for an exit or done).
     bool leaving(const AgentStore& a, std::size_t i) const {
         const int j = a.journey[i];
-        return j >= 0 && a.stage[i] >= stageCount_[static_cast<std::size_t>(j)];
+        return j >= 0 && static_cast<std::size_t>(a.stage[i]) >= stageTarget_[static_cast<std::size_t>(j)].size();
     }
     /// Agent i goes on from its current waypoint to the next stage.
     void advance(AgentStore& a, std::size_t i, double t, std::uint64_t seed);
