@@ -97,6 +97,12 @@ struct HelpTrace {
     double helperX = 0, casualtyX = 0;  ///< final x (or at arrival)
     double helpTime = 0;
     int helpers = 0;
+    // The casualty's own help record (it fell and was helped, it helped nobody), and how many
+    // people the helper had (none).
+    double casualtyHelpTime = -1, casualtyHelpDose = -1;
+    AgentId casualtyHelped = -2;
+    int helperHelpers = -1;
+    std::size_t fallenCount = 0, helperCount = 0, helpedCount = 0;  ///< the layer's counts at the end
 };
 
 HelpTrace runFamily(const std::string& walkers) {
@@ -109,9 +115,10 @@ HelpTrace runFamily(const std::string& walkers) {
         std::size_t c = 0, h = 0;
         if (!find(a, 0, c) || !find(a, 1, h)) break;
         const HealthRecord& rc = *recordOf(sim, 0);
+        const double gotUpAt = sim.health().care(rc).gotUpAt;
         const double gap = (a.pos[c] - a.pos[h]).norm();
         if (rc.fallen && a.vel[h].norm() < 0.1 && gap < 1.5) t.stillSeconds += sim.deltaTime();
-        if (rc.gotUpAt == rc.gotUpAt && sim.time() > rc.gotUpAt + 3) {
+        if (gotUpAt == gotUpAt && sim.time() > gotUpAt + 3) {
             t.maxGapUp = std::max(t.maxGapUp, gap);
             t.helperSpeedUp += a.vel[h].norm();
             t.casualtySpeedUp += a.vel[c].norm();
@@ -125,11 +132,18 @@ HelpTrace runFamily(const std::string& walkers) {
         t.helperSpeedUp /= samples;
         t.casualtySpeedUp /= samples;
     }
-    const HealthRecord& rc = *recordOf(sim, 0);
+    const CareRecord& rc = sim.health().care(*recordOf(sim, 0));
     t.fellAt = rc.fellAt;
     t.gotUpAt = rc.gotUpAt;
     t.helpers = rc.helpers;
-    t.helpTime = recordOf(sim, 1)->helpTime;
+    t.helpTime = sim.health().care(*recordOf(sim, 1)).helpTime;
+    t.casualtyHelpTime = rc.helpTime;
+    t.casualtyHelpDose = rc.helpDose;
+    t.casualtyHelped = rc.firstHelped;
+    t.helperHelpers = sim.health().care(*recordOf(sim, 1)).helpers;
+    t.fallenCount = sim.health().fallenCount();
+    t.helperCount = sim.health().helperCount();
+    t.helpedCount = sim.health().helpedCount();
     return t;
 }
 
@@ -157,6 +171,17 @@ BOOST_AUTO_TEST_CASE(a_family_member_stops_beside_the_fallen_person_and_both_lea
     BOOST_TEST(std::abs(help.helperSpeedUp - help.casualtySpeedUp) < 0.1, "at the pace of the person it helps");
     BOOST_TEST(help.helperBack < 0.5, "walking with it, not to and fro");
     BOOST_TEST(help.helpTime > 30.0, "helping lasts from the fall to the end of the run");
+    // Help is counted for the helper alone: the person on the floor helped nobody, nobody helped
+    // the helper.
+    BOOST_TEST(help.casualtyHelpTime == 0.0);
+    BOOST_TEST(help.casualtyHelpDose == 0.0);
+    BOOST_TEST(help.casualtyHelped == -1);
+    BOOST_TEST(help.helperHelpers == 0);
+    BOOST_TEST(help.fallenCount == 1u);
+    BOOST_TEST(help.helperCount == 1u);
+    BOOST_TEST(help.helpedCount == 1u);
+    BOOST_TEST(alone.helperCount == 0u);
+    BOOST_TEST(alone.helpedCount == 0u);
     // Without help the other member walks away at its own speed.
     BOOST_TEST(alone.stillSeconds < 0.5);
     BOOST_TEST(alone.helperX - alone.casualtyX > 20.0);
@@ -254,7 +279,7 @@ BOOST_AUTO_TEST_CASE(a_stranger_helps_only_with_its_probability) {
         const std::string casualty = std::string(kCasualty) + R"( helping="true" helpRadius="5")";
         Simulation sim(loaded("stranger.xml", corridor(walkers, casualty, agent(5, 1.85, 40, 1.6, 1.2, 1) + agent(3, 0, 40, 0, 1.2, 0), 20)));
         while (!sim.finished()) sim.stepCoarse();
-        return std::pair(recordOf(sim, 0)->helpers, recordOf(sim, 1)->helpTime);
+        return std::pair(sim.health().care(*recordOf(sim, 0)).helpers, sim.health().care(*recordOf(sim, 1)).helpTime);
     };
     const auto yes = run(R"(helping="true" helpStranger="1" helpRadius="3")");
     const auto no = run(R"(helping="true" helpStranger="0" helpRadius="3")");

@@ -161,6 +161,7 @@ double HealthParams::get(const std::string& name) const {
 
 void HealthLayer::init(const ScenarioSpec& spec) {
     records_.assign(spec.agents.size(), HealthRecord{});
+    care_.clear();
     recordOfSpec_.resize(spec.agents.size());
     for (std::size_t k = 0; k < recordOfSpec_.size(); ++k) recordOfSpec_[k] = static_cast<int>(k);
     std::unordered_map<int, std::size_t> policyIndex;
@@ -168,7 +169,7 @@ void HealthLayer::init(const ScenarioSpec& spec) {
     for (std::size_t k = 0; k < spec.agents.size(); ++k) {
         records_[k].id = spec.agents[k].id;
         if (const auto it = policyIndex.find(spec.agents[k].policyId); it != policyIndex.end())
-            records_[k].policy = it->second;
+            records_[k].policy = static_cast<std::uint32_t>(it->second);
     }
     params_.clear();
     hasElement_.clear();
@@ -224,7 +225,7 @@ void HealthLayer::follow(AgentStore& agents) {
         if (newOf[k] < 0) newOf[k] = next++;
     for (int& r : recordOfSpec_) r = newOf[static_cast<std::size_t>(r)];
     // Moved in place, one cycle of the permutation at a time (each swap puts one record where it
-    // belongs): no second copy of the records (≈ 256 bytes per agent), whose fresh pages the
+    // belongs): no second copy of the records (128 bytes per agent), whose fresh pages the
     // kernel would have to fault in at every re-ordering.
     for (std::size_t k = 0; k < total; ++k)
         while (newOf[k] != static_cast<int>(k)) {
@@ -414,23 +415,20 @@ void HealthLayer::endStep(AgentStore& agents, double time, double dt) {
                 // Cornes et al. 2017: under a high enough load a pedestrian falls and lies still;
                 // here at each multiple of fallDose (after getting up, the next multiple fells it
                 // again).
+                // (Its CareRecord is filled in after this loop: making one may grow care_.)
                 if (hp.falls && !r.fallen && r.dose >= hp.fallDose * static_cast<double>(r.falls + 1)) {
                     r.fallen = true;
-                    if (r.falls == 0) {
-                        r.fellAt = time;
-                        r.fallPosition = agents.pos[i];
-                    }
                     ++r.falls;
-                    r.lastFellAt = time;
-                    r.getUpAt = time + hp.getUpTime;
-                    r.standingRadius = agents.radius[i];
                     if (!r.injured()) r.injuredAt = time;  // a fall injures
                     fellNow_[i] = 1;
                 }
             }
-            if (r.helping >= 0) {  // the helper's own exposure while it helps
-                r.helpTime += dt;
-                if (above_[i]) r.helpDose += force * dt;
+            if (r.care >= 0) {  // a helper's own exposure while it helps
+                CareRecord& c = care_[static_cast<std::size_t>(r.care)];
+                if (c.helping >= 0) {
+                    c.helpTime += dt;
+                    if (above_[i]) c.helpDose += force * dt;
+                }
             }
             const Vec2& v = agents.vel[i];
             const double s = v.norm();
@@ -481,8 +479,16 @@ void HealthLayer::endStep(AgentStore& agents, double time, double dt) {
     // Falls of this step, by id; and whether care() has anyone to look after.
     const std::size_t before = falls_.size();
     for (std::size_t i = 0; i < n; ++i) {
-        const HealthRecord& r = record(agents, i);
+        HealthRecord& r = record(agents, i);
         if (fellNow_[i]) {
+            CareRecord& c = careFor(r);
+            if (r.falls == 1) {
+                c.fellAt = time;
+                c.fallPosition = agents.pos[i];
+            }
+            c.lastFellAt = time;
+            c.getUpAt = time + params_[static_cast<std::size_t>(agents.policy[i])].getUpTime;
+            c.standingRadius = agents.radius[i];
             falls_.push_back(FallEvent{r.id, time, agents.pos[i]});
             ++fallenNow_;
         }
@@ -501,17 +507,18 @@ void HealthLayer::care(AgentStore& agents, const PointGrid& grid, double time, d
         for (std::size_t i = 0; i < n; ++i) {
             HealthRecord& r = record(agents, i);
             if (!r.fallen) continue;
-            if (time >= r.getUpAt - 0.5 * dt) {
+            CareRecord& c = care_[static_cast<std::size_t>(r.care)];  // made when it fell
+            if (time >= c.getUpAt - 0.5 * dt) {
                 r.fallen = false;
-                r.gotUpAt = time;
-                r.getUpAt = HealthRecord::kNever;
-                agents.radius[i] = r.standingRadius;
+                c.gotUpAt = time;
+                c.getUpAt = CareRecord::kNever;
+                agents.radius[i] = c.standingRadius;
                 --fallenNow_;
                 continue;
             }
             const HealthParams& hp = params_[static_cast<std::size_t>(agents.policy[i])];
-            const double grown = std::min(1.0, (time - r.lastFellAt) / kFallSeconds);
-            agents.radius[i] = r.standingRadius + grown * (hp.fallenRadius - r.standingRadius);
+            const double grown = std::min(1.0, (time - c.lastFellAt) / kFallSeconds);
+            agents.radius[i] = c.standingRadius + grown * (hp.fallenRadius - c.standingRadius);
             agents.prefVel[i] = Vec2(0, 0);
         }
     // 2. The casualties in the world (injured or on the floor), by id.
@@ -526,9 +533,12 @@ void HealthLayer::care(AgentStore& agents, const PointGrid& grid, double time, d
         if (r.injured() || r.fallen) {
             casualties.push_back(i);
             anyGroup = anyGroup || agents.group[i] >= 0;
-            r.helping = -1;  // a helper who was hurt itself stops helping
-            r.helpPhase = 0;
-        } else if (r.helping >= 0) {
+            if (care(r).helping >= 0) {  // a helper who was hurt itself stops helping
+                CareRecord& c = care_[static_cast<std::size_t>(r.care)];
+                c.helping = -1;
+                c.helpPhase = 0;
+            }
+        } else if (care(r).helping >= 0) {
             helpers.push_back(i);
         }
     }
@@ -545,16 +555,17 @@ void HealthLayer::care(AgentStore& agents, const PointGrid& grid, double time, d
         auto tryHelp = [&](std::size_t j, std::size_t c, bool stranger) {
             HealthRecord& rj = record(agents, j);
             const HealthParams& hp = params_[static_cast<std::size_t>(agents.policy[j])];
-            if (!hp.helping || rj.injured() || rj.fallen || rj.helping >= 0) return false;
+            if (!hp.helping || rj.injured() || rj.fallen || care(rj).helping >= 0) return false;
             const AgentId cid = agents.id[c];
             // The draw is keyed by the pair: asked again later, an agent answers the same.
             Rng rng(seed, static_cast<std::uint64_t>(agents.id[j]), static_cast<std::uint64_t>(cid), kStreamHelp);
             if (!(rng.uniform() < (stranger ? hp.helpStranger : hp.helpGroup))) return false;
-            rj.helping = cid;
-            rj.helpPhase = 1;
-            rj.besideSince = HealthRecord::kNever;
-            if (rj.firstHelped < 0) rj.firstHelped = cid;
-            ++record(agents, c).helpers;
+            CareRecord& cj = careFor(rj);
+            cj.helping = cid;
+            cj.helpPhase = 1;
+            cj.besideSince = CareRecord::kNever;
+            if (cj.firstHelped < 0) cj.firstHelped = cid;
+            ++careFor(record(agents, c)).helpers;
             helpers.push_back(j);
             return true;
         };
@@ -567,7 +578,7 @@ void HealthLayer::care(AgentStore& agents, const PointGrid& grid, double time, d
             if (!(farthest > 0)) continue;
             // One stranger at a time: only while nobody helps this casualty.
             bool helped = false;
-            for (std::size_t h : helpers) helped = helped || record(agents, h).helping == agents.id[c];
+            for (std::size_t h : helpers) helped = helped || care(record(agents, h)).helping == agents.id[c];
             if (helped) continue;
             near.clear();
             grid.forEachWithin(agents.pos[c], farthest, [&](int jj, const Vec2&, double d2) {
@@ -585,12 +596,13 @@ void HealthLayer::care(AgentStore& agents, const PointGrid& grid, double time, d
     }
     // 4. The helpers act: to the fallen person, beside it, or walking with the injured one.
     for (std::size_t i : helpers) {
-        HealthRecord& r = record(agents, i);
-        if (r.helping < 0) continue;
-        const auto it = casualtyAt.find(r.helping);
+        const HealthRecord& r = record(agents, i);
+        if (care(r).helping < 0) continue;
+        CareRecord& own = care_[static_cast<std::size_t>(r.care)];  // made when it began to help
+        const auto it = casualtyAt.find(own.helping);
         if (it == casualtyAt.end()) {  // the person has left (or is no longer a casualty)
-            r.helping = -1;
-            r.helpPhase = 0;
+            own.helping = -1;
+            own.helpPhase = 0;
             continue;
         }
         const std::size_t c = it->second;
@@ -601,18 +613,19 @@ void HealthLayer::care(AgentStore& agents, const PointGrid& grid, double time, d
         const Vec2 towards = dist > 1e-12 ? Vec2(d / dist) : Vec2(0, 0);
         if (rc.fallen) {
             const double reach = agents.radius[i] + agents.radius[c] + 0.3;
-            if (dist > reach + (r.helpPhase == 2 ? 0.5 : 0.0)) {
-                r.helpPhase = 1;
+            if (dist > reach + (own.helpPhase == 2 ? 0.5 : 0.0)) {
+                own.helpPhase = 1;
                 agents.prefVel[i] = towards * agents.prefSpeed[i];
             } else {
-                if (r.helpPhase != 2 && !(r.besideSince == r.besideSince)) r.besideSince = time;
-                r.helpPhase = 2;
+                if (own.helpPhase != 2 && !(own.besideSince == own.besideSince)) own.besideSince = time;
+                own.helpPhase = 2;
                 agents.prefVel[i] = Vec2(0, 0);
                 // Helped up: the person gets up helpTime after the first helper came beside it.
-                rc.getUpAt = std::min(rc.getUpAt, r.besideSince + hp.helpTime);
+                CareRecord& cc = care_[static_cast<std::size_t>(rc.care)];  // made when it fell
+                cc.getUpAt = std::min(cc.getUpAt, own.besideSince + hp.helpTime);
             }
         } else {
-            r.helpPhase = 3;
+            own.helpPhase = 3;
             if (dist > hp.escortDistance) {
                 agents.prefVel[i] = towards * agents.prefSpeed[i];
             } else {
@@ -638,12 +651,20 @@ std::size_t HealthLayer::fallenCount() const {
 
 std::size_t HealthLayer::helperCount() const {
     return static_cast<std::size_t>(
-        std::count_if(records_.begin(), records_.end(), [](const HealthRecord& r) { return r.isHelper(); }));
+        std::count_if(care_.begin(), care_.end(), [](const CareRecord& c) { return c.isHelper(); }));
 }
 
 std::size_t HealthLayer::helpedCount() const {
     return static_cast<std::size_t>(
-        std::count_if(records_.begin(), records_.end(), [](const HealthRecord& r) { return r.helpers > 0; }));
+        std::count_if(care_.begin(), care_.end(), [](const CareRecord& c) { return c.helpers > 0; }));
+}
+
+CareRecord& HealthLayer::careFor(HealthRecord& r) {
+    if (r.care < 0) {
+        r.care = static_cast<int>(care_.size());
+        care_.emplace_back();
+    }
+    return care_[static_cast<std::size_t>(r.care)];
 }
 
 double HealthLayer::meanPanic(const AgentStore& agents) const {
@@ -673,6 +694,7 @@ void healthCsv(const HealthLayer& health, const std::function<void(std::string_v
         if (v == v) appendNumber(out, v, 10);
     };
     for (const HealthRecord* r : rows) {
+        const CareRecord& c = health.care(*r);
         out += std::to_string(r->id);
         for (const double v : {r->peakContactAccel, r->peakForce}) { out += ','; appendNumber(out, v); }
         out += ',';
@@ -685,16 +707,16 @@ void healthCsv(const HealthLayer& health, const std::function<void(std::string_v
         optional(r->exitTime);
         out += ',';
         appendNumber(out, r->meanAbsHeadingChange());
-        optional(r->fellAt);
+        optional(c.fellAt);
         out += ',' + std::to_string(r->falls);
-        optional(r->gotUpAt);
+        optional(c.gotUpAt);
         out += ',';
-        if (r->firstHelped >= 0) out += std::to_string(r->firstHelped);
+        if (c.firstHelped >= 0) out += std::to_string(c.firstHelped);
         out += ',';
-        appendNumber(out, r->helpTime, 10);
+        appendNumber(out, c.helpTime, 10);
         out += ',';
-        appendNumber(out, r->helpDose);
-        out += ',' + std::to_string(r->helpers);
+        appendNumber(out, c.helpDose);
+        out += ',' + std::to_string(c.helpers);
         out += '\n';
         if (out.size() >= kPiece) {
             sink(out);

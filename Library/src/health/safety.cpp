@@ -513,7 +513,7 @@ void SafetyRecorder::recordAt(const AgentStore& a, double t, const HealthLayer* 
     std::vector<double> contact(health != nullptr ? f.size() : 0, 0.0);
     std::vector<std::pair<int, int>> crushCells;  // (iy, ix) of the agents above their threshold
     // The health layer's byte per record when it has them (the test below, without reading the
-    // agent's 256-byte record).
+    // agent's 128-byte record).
     const unsigned char* crushed = health != nullptr ? health->crushFlags() : nullptr;
     for (std::size_t i = 0; i < a.size() && health != nullptr; ++i) {
         const HealthLayer& h = *health;
@@ -834,8 +834,9 @@ Verdict SafetyRecorder::verdict(const Simulation& sim) const {
         }
         for (const HealthRecord& rec : h.records())
             if (rec.everFell()) {
-                const double until = rec.fallen ? sim.time() : rec.gotUpAt;
-                if (until == until) down = std::max(down, until - rec.lastFellAt);
+                const CareRecord& c = h.care(rec);
+                const double until = rec.fallen ? sim.time() : c.gotUpAt;
+                if (until == until) down = std::max(down, until - c.lastFellAt);
             }
         r.duration = down;
         r.x = sum.x() / static_cast<double>(falls.size());
@@ -857,13 +858,13 @@ Verdict SafetyRecorder::verdict(const Simulation& sim) const {
         r.people = helpers;
         double total = 0, longest = 0, dose = 0, first = std::numeric_limits<double>::quiet_NaN();
         for (const HealthRecord& rec : h.records())
-            if (rec.isHelper()) {
-                total += rec.helpTime;
-                longest = std::max(longest, rec.helpTime);
-                dose = std::max(dose, rec.helpDose);
+            if (const CareRecord& c = h.care(rec); c.isHelper()) {
+                total += c.helpTime;
+                longest = std::max(longest, c.helpTime);
+                dose = std::max(dose, c.helpDose);
             }
         for (const HealthRecord& rec : h.records())
-            if (rec.helpers > 0) {
+            if (h.care(rec).helpers > 0) {
                 const double t = rec.injuredAt;
                 if (t == t && !(first <= t)) first = t;
             }

@@ -82,8 +82,32 @@ struct HealthParams {
     double get(const std::string& name) const;
 };
 
-/// One pedestrian's health record (one row of health.csv). The fields that every fine step reads
-/// or writes come first, in the record's first two cache lines (records are 64-byte aligned):
+/// What a pedestrian's falls and helping leave: only agents that fell, helped or were helped have
+/// one (HealthLayer::care()), kept apart from their HealthRecord so that the record is two cache
+/// lines (a million agents' records take 122 MiB instead of 244).
+struct CareRecord {
+    static constexpr double kNever = std::numeric_limits<double>::quiet_NaN();
+    // falls
+    double fellAt = kNever;          ///< s, the first fall
+    double lastFellAt = kNever;      ///< s, the latest fall
+    double gotUpAt = kNever;         ///< s, the latest getting up
+    double getUpAt = kNever;         ///< s, when the agent on the floor gets up (while fallen)
+    double standingRadius = 0;       ///< m, its radius before it fell
+    Vec2 fallPosition{0, 0};         ///< m, where it (first) fell
+    // helping (altruism)
+    AgentId helping = -1;            ///< the person it helps now (-1: nobody)
+    double besideSince = kNever;     ///< s, arrived beside the fallen person it helps
+    double helpTime = 0;             ///< s spent helping (approaching, beside, escorting)
+    double helpDose = 0;             ///< N·s of crush dose received while helping
+    int helpPhase = 0;               ///< 0 none, 1 going to, 2 beside (stopped), 3 escorting
+    AgentId firstHelped = -1;        ///< the first person it helped
+    int helpers = 0;                 ///< people who came to help this one
+
+    bool isHelper() const { return firstHelped >= 0; }
+};
+
+/// One pedestrian's health record (with its CareRecord, one row of health.csv): two cache lines
+/// (records are 64-byte aligned). The fields that every fine step reads or writes come first:
 /// beginStep reads only the first line, endStep the first two (the layer's per-step loops are
 /// memory-bound at 100k agents).
 struct alignas(64) HealthRecord {
@@ -97,39 +121,24 @@ struct alignas(64) HealthRecord {
     double injuredAt = kNever;       ///< s
     double panic = 0;                ///< current level 0..1
     double peakPanic = 0;
-    // second cache line: heading, and the flags endStep tests every step
+    // second cache line: heading, the flags endStep tests every step, identity
     Vec2 lastHeading{0, 0};          ///< unit velocity direction of the last step (0: none)
     double headingChange = 0;        ///< rad, Σ|Δθ| while moving
     double movingTime = 0;           ///< s over which headingChange was summed
-    AgentId helping = -1;            ///< the person it helps now (-1: nobody)
+    AgentId id = -1;
+    double exitTime = kNever;        ///< s, removed at its goal
+    int care = -1;                   ///< index of its CareRecord (HealthLayer::care()); -1: none
     int falls = 0;                   ///< times fallen
+    std::uint32_t policy = 0;        ///< the agent's policy index (whose layer parameters apply)
     bool fallen = false;             ///< on the floor now
     bool seen = false;               ///< the agent was in the world at some point
-    // the rest: identity, and what changes only at events
-    AgentId id = -1;
-    std::size_t policy = 0;          ///< the agent's policy index (whose layer parameters apply)
-    double exitTime = kNever;        ///< s, removed at its goal
-    // falls
-    double fellAt = kNever;          ///< s, the first fall
-    double lastFellAt = kNever;      ///< s, the latest fall
-    double gotUpAt = kNever;         ///< s, the latest getting up
-    double getUpAt = kNever;         ///< s, when the agent on the floor gets up (while fallen)
-    double standingRadius = 0;       ///< m, its radius before it fell
-    Vec2 fallPosition{0, 0};         ///< m, where it (first) fell
-    // helping (altruism)
-    int helpPhase = 0;               ///< 0 none, 1 going to, 2 beside (stopped), 3 escorting
-    double besideSince = kNever;     ///< s, arrived beside the fallen person it helps
-    AgentId firstHelped = -1;        ///< the first person it helped
-    double helpTime = 0;             ///< s spent helping (approaching, beside, escorting)
-    double helpDose = 0;             ///< N·s of crush dose received while helping
-    int helpers = 0;                 ///< people who came to help this one
 
     bool injured() const { return injuredAt == injuredAt; }
     bool everFell() const { return falls > 0; }
-    bool isHelper() const { return firstHelped >= 0; }
     /// Mean absolute heading change (rad/s) while moving faster than 0.1 m/s; 0 if never.
     double meanAbsHeadingChange() const { return movingTime > 0 ? headingChange / movingTime : 0.0; }
 };
+static_assert(sizeof(HealthRecord) == 128, "HealthRecord should stay two cache lines (memory at a million agents)");
 
 /// One fall (for the verdict: where and when).
 struct FallEvent {
@@ -184,12 +193,18 @@ public:
     void follow(AgentStore& agents);
 
     const std::vector<HealthRecord>& records() const { return records_; }
+    /// The falls and helping of record r: its CareRecord, or an empty one (it never fell, helped
+    /// anyone or was helped) when it has none.
+    const CareRecord& care(const HealthRecord& r) const {
+        static const CareRecord none;
+        return r.care >= 0 ? care_[static_cast<std::size_t>(r.care)] : none;
+    }
     /// One byte per record (index AgentStore::record): 1 when the record's lastForce exceeds its
     /// policy's crushThreshold, i.e. `r.lastForce > params(r.policy).crushThreshold`, as the last
     /// endStep left them. nullptr when these bytes cannot stand for that test: before the first
     /// endStep, or once some policy's crushThreshold differs from the one that endStep used (a
     /// ramp): the caller then reads the records. Readers of every agent's crush state (the safety
-    /// recorder) touch one byte per agent instead of its 256-byte record.
+    /// recorder) touch one byte per agent instead of its 128-byte record.
     const unsigned char* crushFlags() const;
     /// Record of active agent i (AgentStore index): records are one per spec agent, found through
     /// AgentStore::record, so agents keep theirs whatever the removals and re-orderings.
@@ -215,7 +230,11 @@ private:
     }
     const HealthRecord& record(const AgentStore& agents, std::size_t i) const { return recordOf(agents, i); }
 
+    /// Record r's CareRecord, made (empty) when it has none. Serial code only: it may grow care_.
+    CareRecord& careFor(HealthRecord& r);
+
     std::vector<HealthRecord> records_;      ///< one per spec agent (spec order until follow())
+    std::vector<CareRecord> care_;           ///< HealthRecord::care indexes it, in the order they were needed
     std::vector<int> recordOfSpec_;          ///< spec position → index in records_
     std::vector<HealthParams> params_;       ///< per policy index
     std::vector<unsigned char> hasElement_;  ///< per policy index
