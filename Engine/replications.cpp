@@ -241,6 +241,7 @@ int runReplications(const Options& o) {
         RunHooks hooks;
         hooks.afterStep = [&](const ch::Simulation& s) { clocks[k].time.store(s.time(), std::memory_order_relaxed); };
         hooks.probeMeanDensityAt = kDensityProbeTime;
+        hooks.releaseAgentSpecs = true;
         const RunOutcome outcome = simulateAndWrite(*sim, *plan, dir, 1, o, hooks);
         if (!outcome.error.empty()) throw std::runtime_error(outcome.error);
         for (const std::string& w : outcome.warnings) shared.say("crowdhealth: warning: " + name + ": " + w);

@@ -102,6 +102,7 @@ int runScenario(const Options& o) {
     RunHooks hooks;
     hooks.afterStep = [&](const ch::Simulation& s) { progress.update(s); };
     hooks.afterLoop = [&](const ch::Simulation& s) { progress.finish(s); };
+    hooks.releaseAgentSpecs = true;  // the progress line reads totalAgents(), not the specs
 
     installInterruptHandlers();
     const RunOutcome outcome = simulateAndWrite(*sim, *plan, outDir, threads, o, hooks);

@@ -341,8 +341,14 @@ RunOutcome simulateAndWrite(ch::Simulation& sim, const RunPlan& plan, const fs::
     try {
         session->begin();
         if (!probeDone) probe();
+        // Once every agent is in the world (at once for a crowd placed at t = 0).
+        auto release = [&] {
+            if (hooks.releaseAgentSpecs && !sim.agentSpecsReleased()) sim.releaseAgentSpecs();
+        };
+        release();
         while (!session->done()) {
             session->step();
+            release();
             if (!probeDone) probe();
             if (hooks.afterStep) hooks.afterStep(sim);
             if (o.interruptAfterSteps && sim.coarseSteps() >= *o.interruptAfterSteps &&

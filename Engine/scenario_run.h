@@ -76,6 +76,10 @@ struct RunHooks {
     /// Take mean_density at the first coarse step at or after this time (s): the metrics row of
     /// that step when there is one, else a measurement of its own (which changes nothing).
     std::optional<double> probeMeanDensityAt;
+    /// Free the simulation's agent specs once every agent is in the world
+    /// (ch::Simulation::releaseAgentSpecs: 240 bytes per agent), for callers whose hooks do not
+    /// read spec().agents. Nothing the run computes or writes reads them.
+    bool releaseAgentSpecs = false;
 };
 
 struct RunOutcome {

@@ -468,6 +468,7 @@ static SweepResult executeSweepRun(const SweepSettings& s, const SweepRun& run, 
         fs::create_directories(dir);
         RunHooks hooks;
         if (clock != nullptr) hooks.afterStep = [&](const ch::Simulation& sm) { clock->store(sm.time(), std::memory_order_relaxed); };
+        hooks.releaseAgentSpecs = true;
         const RunOutcome outcome = simulateAndWrite(sim, *plan, dir, 1, o, hooks);
         if (!outcome.error.empty()) throw std::runtime_error(outcome.error);
         if (outcome.info.interrupted) throw std::runtime_error("interrupted");

@@ -248,6 +248,41 @@ BOOST_AUTO_TEST_CASE(a_full_area_delays_a_group_as_a_whole) {
     BOOST_TEST(delayed >= 3, delayed << " groups delayed by a full area");
 }
 
+BOOST_AUTO_TEST_CASE(agent_specs_are_released_only_once_everyone_has_arrived_and_change_nothing) {
+    // Simulation::releaseAgentSpecs (what the program calls after every step): refused while
+    // anyone is still to come, arrivals waiting for room in a full area included; once done, the
+    // specs are gone, the count of agents stays, and every position is the bits of a run that
+    // keeps them.
+    const ScenarioSpec s = loaded("release.xml", hall(R"(rate="10" count="40" premovement="3" group_size_min="4" group_size_max="5")", true, 1, 30, "",
+                                                      R"(xmin="1" xmax="3" ymin="9" ymax="11")"));
+    Simulation kept(s), freed(s);
+    bool waited = false;  // a step with arrivals waiting for room, whose specs must stay
+    std::size_t releasedAt = 0;
+    while (!kept.finished()) {
+        kept.stepCoarse();
+        freed.stepCoarse();
+        waited = waited || freed.waitingArrivals() > 0;
+        const bool anyoneToCome = freed.pending() > 0;
+        const bool released = freed.releaseAgentSpecs();
+        BOOST_TEST(released == !anyoneToCome);
+        BOOST_TEST(freed.agentSpecsReleased() == released);
+        BOOST_TEST(freed.spec().agents.size() == (released ? 0u : s.agents.size()));
+        BOOST_TEST(freed.totalAgents() == s.agents.size());
+        if (released && releasedAt == 0) releasedAt = kept.coarseSteps();
+        BOOST_TEST_REQUIRE(freed.agents().size() == kept.agents().size());
+        for (std::size_t i = 0; i < kept.agents().size(); ++i) {
+            BOOST_TEST_REQUIRE(freed.agents().id[i] == kept.agents().id[i]);
+            BOOST_TEST_REQUIRE(freed.agents().pos[i].x() == kept.agents().pos[i].x());  // bit for bit
+            BOOST_TEST_REQUIRE(freed.agents().pos[i].y() == kept.agents().pos[i].y());
+        }
+    }
+    BOOST_TEST(waited, "some arrivals waited for room");
+    BOOST_TEST(releasedAt > 0u, "the specs were released once all 40 had arrived");
+    BOOST_TEST(kept.spec().agents.size() == s.agents.size());
+    BOOST_TEST(freed.health().injuredCount() == kept.health().injuredCount());
+    BOOST_TEST(freed.evacuations().size() == kept.evacuations().size());
+}
+
 BOOST_AUTO_TEST_CASE(groups_and_places_are_the_same_on_1_and_2_threads_and_every_run) {
     const std::string xml = hall(R"(rate="3" count="60" group_size_min="2" group_size_max="5")", true, 7, 40);
     const ScenarioSpec a = loaded("det-a.xml", xml), b = loaded("det-b.xml", xml);

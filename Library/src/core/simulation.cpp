@@ -69,6 +69,7 @@ Simulation::Simulation(ScenarioSpec specIn)
             for (const auto& e : s.components()) needStoredLists_ = needStoredLists_ || e.component->readsStepLists();
     storeLists_ = needStoredLists_;
 
+    totalAgents_ = spec.agents.size();
     pending_.resize(spec.agents.size());
     for (std::size_t k = 0; k < pending_.size(); ++k) pending_[k] = k;
     std::stable_sort(pending_.begin(), pending_.end(), [&](std::size_t a, std::size_t b) {
@@ -83,6 +84,20 @@ Simulation::Simulation(ScenarioSpec specIn)
 }
 
 Simulation::~Simulation() = default;
+
+bool Simulation::releaseAgentSpecs() {
+    if (specsReleased_) return true;
+    if (pending() > 0) return false;
+    // Read only to activate agents (their spec, policy and record, a waiting group's members in
+    // Navigation) and by ramps and setPrefSpeed for agents still to come: none is left.
+    std::vector<AgentSpec>().swap(spec_.agents);
+    std::vector<std::size_t>().swap(pending_);
+    nextPending_ = 0;
+    std::vector<int>().swap(agentPolicy_);
+    health_.releaseSpecPositions();
+    specsReleased_ = true;
+    return true;
+}
 
 double Simulation::stepGridCell(double range) {
     return range < NeighbourLists::kFineGridFrom ? 0.5 * range : range;

@@ -98,6 +98,7 @@ public:
     /// True once time ≥ end time, or when no agent is active or waiting any more.
     bool finished() const;
 
+    /// The scenario it was built from; its agents are gone after releaseAgentSpecs().
     const ScenarioSpec& spec() const { return spec_; }
     const World& world() const { return world_; }
     const AgentStore& agents() const { return agents_; }
@@ -118,7 +119,16 @@ public:
     const std::vector<Removal>& removed() const { return removed_; }
     /// Agents not yet activated (start_time in the future, or a source's arrival waiting for room).
     std::size_t pending() const { return pending_.size() - nextPending_ + deferred_.size(); }
-    std::size_t totalAgents() const { return spec_.agents.size(); }
+    /// Every agent of the scenario: active, waiting, or removed (spec().agents.size() until
+    /// releaseAgentSpecs()).
+    std::size_t totalAgents() const { return totalAgents_; }
+    /// Frees the agent specs (spec().agents, 240 bytes per agent: 229 MiB for a million) once every
+    /// agent is in the world, for a program that no longer reads them; spec().agents is empty
+    /// afterwards, the rest of spec() stays. False (and nothing freed) while some agent is still to
+    /// come (pending() > 0): call it again later. Nothing the simulation computes depends on it.
+    bool releaseAgentSpecs();
+    /// True once releaseAgentSpecs() has freed the agent specs.
+    bool agentSpecsReleased() const { return specsReleased_; }
 
     /// Fills agents().density with the SPH density measured with the Poly6 kernel (h in m),
     /// counting other agents, the agent itself and static boundary particles (mass 1 each).
@@ -206,6 +216,8 @@ private:
     std::uint64_t fineSteps_ = 0;
     std::vector<std::size_t> pending_;  ///< indices into spec_.agents, by start time then file order
     std::size_t nextPending_ = 0;
+    std::size_t totalAgents_ = 0;
+    bool specsReleased_ = false;
     std::unique_ptr<Navigation> navigation_;
     std::vector<std::size_t> deferred_;  ///< source arrivals that found no free place, in order
     std::vector<Evacuation> evacuations_;

@@ -187,6 +187,8 @@ public:
     void activated(const AgentStore& agents, std::size_t i);
     /// The record of the agent at `specPosition` in ScenarioSpec::agents (for AgentStore::add).
     int recordFor(std::size_t specPosition) const { return recordOfSpec_[specPosition]; }
+    /// Frees what recordFor() reads, once every agent is in the world (Simulation::releaseAgentSpecs).
+    void releaseSpecPositions() { std::vector<int>().swap(recordOfSpec_); }
     /// Moves the records so that active agent i's is records()[i] (the others follow, in their
     /// order) and updates AgentStore::record: the per-step loops then read records in order.
     /// The simulation calls it after re-ordering the agents.
