@@ -115,7 +115,7 @@ HelpTrace runFamily(const std::string& walkers) {
         std::size_t c = 0, h = 0;
         if (!find(a, 0, c) || !find(a, 1, h)) break;
         const HealthRecord& rc = *recordOf(sim, 0);
-        const double gotUpAt = sim.health().care(rc).gotUpAt;
+        const double gotUpAt = sim.health().careOf(rc).gotUpAt;
         const double gap = (a.pos[c] - a.pos[h]).norm();
         if (rc.fallen && a.vel[h].norm() < 0.1 && gap < 1.5) t.stillSeconds += sim.deltaTime();
         if (gotUpAt == gotUpAt && sim.time() > gotUpAt + 3) {
@@ -132,15 +132,15 @@ HelpTrace runFamily(const std::string& walkers) {
         t.helperSpeedUp /= samples;
         t.casualtySpeedUp /= samples;
     }
-    const CareRecord& rc = sim.health().care(*recordOf(sim, 0));
+    const CareRecord& rc = sim.health().careOf(*recordOf(sim, 0));
     t.fellAt = rc.fellAt;
     t.gotUpAt = rc.gotUpAt;
     t.helpers = rc.helpers;
-    t.helpTime = sim.health().care(*recordOf(sim, 1)).helpTime;
+    t.helpTime = sim.health().careOf(*recordOf(sim, 1)).helpTime;
     t.casualtyHelpTime = rc.helpTime;
     t.casualtyHelpDose = rc.helpDose;
     t.casualtyHelped = rc.firstHelped;
-    t.helperHelpers = sim.health().care(*recordOf(sim, 1)).helpers;
+    t.helperHelpers = sim.health().careOf(*recordOf(sim, 1)).helpers;
     t.fallenCount = sim.health().fallenCount();
     t.helperCount = sim.health().helperCount();
     t.helpedCount = sim.health().helpedCount();
@@ -279,7 +279,7 @@ BOOST_AUTO_TEST_CASE(a_stranger_helps_only_with_its_probability) {
         const std::string casualty = std::string(kCasualty) + R"( helping="true" helpRadius="5")";
         Simulation sim(loaded("stranger.xml", corridor(walkers, casualty, agent(5, 1.85, 40, 1.6, 1.2, 1) + agent(3, 0, 40, 0, 1.2, 0), 20)));
         while (!sim.finished()) sim.stepCoarse();
-        return std::pair(sim.health().care(*recordOf(sim, 0)).helpers, sim.health().care(*recordOf(sim, 1)).helpTime);
+        return std::pair(sim.health().careOf(*recordOf(sim, 0)).helpers, sim.health().careOf(*recordOf(sim, 1)).helpTime);
     };
     const auto yes = run(R"(helping="true" helpStranger="1" helpRadius="3")");
     const auto no = run(R"(helping="true" helpStranger="0" helpRadius="3")");

@@ -533,12 +533,12 @@ void HealthLayer::care(AgentStore& agents, const PointGrid& grid, double time, d
         if (r.injured() || r.fallen) {
             casualties.push_back(i);
             anyGroup = anyGroup || agents.group[i] >= 0;
-            if (care(r).helping >= 0) {  // a helper who was hurt itself stops helping
+            if (careOf(r).helping >= 0) {  // a helper who was hurt itself stops helping
                 CareRecord& c = care_[static_cast<std::size_t>(r.care)];
                 c.helping = -1;
                 c.helpPhase = 0;
             }
-        } else if (care(r).helping >= 0) {
+        } else if (careOf(r).helping >= 0) {
             helpers.push_back(i);
         }
     }
@@ -555,7 +555,7 @@ void HealthLayer::care(AgentStore& agents, const PointGrid& grid, double time, d
         auto tryHelp = [&](std::size_t j, std::size_t c, bool stranger) {
             HealthRecord& rj = record(agents, j);
             const HealthParams& hp = params_[static_cast<std::size_t>(agents.policy[j])];
-            if (!hp.helping || rj.injured() || rj.fallen || care(rj).helping >= 0) return false;
+            if (!hp.helping || rj.injured() || rj.fallen || careOf(rj).helping >= 0) return false;
             const AgentId cid = agents.id[c];
             // The draw is keyed by the pair: asked again later, an agent answers the same.
             Rng rng(seed, static_cast<std::uint64_t>(agents.id[j]), static_cast<std::uint64_t>(cid), kStreamHelp);
@@ -578,7 +578,7 @@ void HealthLayer::care(AgentStore& agents, const PointGrid& grid, double time, d
             if (!(farthest > 0)) continue;
             // One stranger at a time: only while nobody helps this casualty.
             bool helped = false;
-            for (std::size_t h : helpers) helped = helped || care(record(agents, h)).helping == agents.id[c];
+            for (std::size_t h : helpers) helped = helped || careOf(record(agents, h)).helping == agents.id[c];
             if (helped) continue;
             near.clear();
             grid.forEachWithin(agents.pos[c], farthest, [&](int jj, const Vec2&, double d2) {
@@ -597,7 +597,7 @@ void HealthLayer::care(AgentStore& agents, const PointGrid& grid, double time, d
     // 4. The helpers act: to the fallen person, beside it, or walking with the injured one.
     for (std::size_t i : helpers) {
         const HealthRecord& r = record(agents, i);
-        if (care(r).helping < 0) continue;
+        if (careOf(r).helping < 0) continue;
         CareRecord& own = care_[static_cast<std::size_t>(r.care)];  // made when it began to help
         const auto it = casualtyAt.find(own.helping);
         if (it == casualtyAt.end()) {  // the person has left (or is no longer a casualty)
@@ -694,7 +694,7 @@ void healthCsv(const HealthLayer& health, const std::function<void(std::string_v
         if (v == v) appendNumber(out, v, 10);
     };
     for (const HealthRecord* r : rows) {
-        const CareRecord& c = health.care(*r);
+        const CareRecord& c = health.careOf(*r);
         out += std::to_string(r->id);
         for (const double v : {r->peakContactAccel, r->peakForce}) { out += ','; appendNumber(out, v); }
         out += ',';

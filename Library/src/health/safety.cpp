@@ -834,7 +834,7 @@ Verdict SafetyRecorder::verdict(const Simulation& sim) const {
         }
         for (const HealthRecord& rec : h.records())
             if (rec.everFell()) {
-                const CareRecord& c = h.care(rec);
+                const CareRecord& c = h.careOf(rec);
                 const double until = rec.fallen ? sim.time() : c.gotUpAt;
                 if (until == until) down = std::max(down, until - c.lastFellAt);
             }
@@ -858,13 +858,13 @@ Verdict SafetyRecorder::verdict(const Simulation& sim) const {
         r.people = helpers;
         double total = 0, longest = 0, dose = 0, first = std::numeric_limits<double>::quiet_NaN();
         for (const HealthRecord& rec : h.records())
-            if (const CareRecord& c = h.care(rec); c.isHelper()) {
+            if (const CareRecord& c = h.careOf(rec); c.isHelper()) {
                 total += c.helpTime;
                 longest = std::max(longest, c.helpTime);
                 dose = std::max(dose, c.helpDose);
             }
         for (const HealthRecord& rec : h.records())
-            if (h.care(rec).helpers > 0) {
+            if (h.careOf(rec).helpers > 0) {
                 const double t = rec.injuredAt;
                 if (t == t && !(first <= t)) first = t;
             }

@@ -604,7 +604,7 @@ std::string summaryJson(const Simulation& sim, const RunInfo& info, const Metric
     {
         const HealthLayer& h = sim.health();
         double helpTime = 0;
-        for (const HealthRecord& r : h.records()) helpTime += h.care(r).helpTime;
+        for (const HealthRecord& r : h.records()) helpTime += h.careOf(r).helpTime;
         j["health"] = Json{{"injured", h.injuredCount()},
                            {"fallen", h.fallenCount()},
                            {"falls", h.fallEvents().size()},

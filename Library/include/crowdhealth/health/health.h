@@ -83,7 +83,7 @@ struct HealthParams {
 };
 
 /// What a pedestrian's falls and helping leave: only agents that fell, helped or were helped have
-/// one (HealthLayer::care()), kept apart from their HealthRecord so that the record is two cache
+/// one (HealthLayer::careOf()), kept apart from their HealthRecord so that the record is two cache
 /// lines (a million agents' records take 122 MiB instead of 244).
 struct CareRecord {
     static constexpr double kNever = std::numeric_limits<double>::quiet_NaN();
@@ -127,7 +127,7 @@ struct alignas(64) HealthRecord {
     double movingTime = 0;           ///< s over which headingChange was summed
     AgentId id = -1;
     double exitTime = kNever;        ///< s, removed at its goal
-    int care = -1;                   ///< index of its CareRecord (HealthLayer::care()); -1: none
+    int care = -1;                   ///< index of its CareRecord (HealthLayer::careOf()); -1: none
     int falls = 0;                   ///< times fallen
     std::uint32_t policy = 0;        ///< the agent's policy index (whose layer parameters apply)
     bool fallen = false;             ///< on the floor now
@@ -197,7 +197,7 @@ public:
     const std::vector<HealthRecord>& records() const { return records_; }
     /// The falls and helping of record r: its CareRecord, or an empty one (it never fell, helped
     /// anyone or was helped) when it has none.
-    const CareRecord& care(const HealthRecord& r) const {
+    const CareRecord& careOf(const HealthRecord& r) const {
         static const CareRecord none;
         return r.care >= 0 ? care_[static_cast<std::size_t>(r.care)] : none;
     }
