@@ -55,7 +55,7 @@ Vec2 PLEdestrians::goalOffset(const AgentQuery& q, const StepContext& ctx) const
     const AgentStore& A = ctx.agents;
     // With global navigation (or a journey) the goal lies along the path: the path's direction
     // times the distance left on it (crowdhealth/navigation/navigation.h).
-    if (A.target[q.i] >= 0 && A.navDistance[q.i] >= 0) return A.navDir[q.i] * A.navDistance[q.i];
+    if (A.navigationColumns && A.target[q.i] >= 0 && A.navDistance[q.i] >= 0) return A.navDir[q.i] * A.navDistance[q.i];
     return A.hasGoal[q.i] ? Vec2(A.goal[q.i] - q.position) : Vec2(0, 0);
 }
 

@@ -150,6 +150,41 @@ BOOST_AUTO_TEST_CASE(without_navigation_the_same_crowd_walks_into_the_inner_wall
     BOOST_TEST(o.exitOf.empty());
 }
 
+BOOST_AUTO_TEST_CASE(navigation_columns_are_kept_only_with_navigation) {
+    // Without a venue the store keeps no navigation columns (53 bytes per agent); with one, they
+    // follow the agents through arrivals, removals at the exits and re-orderings.
+    auto columnSizes = [](const AgentStore& a) {
+        return std::vector<std::size_t>{a.journey.size(), a.stage.size(),  a.target.size(),   a.navDistance.size(),
+                                         a.navDir.size(),  a.holdUntil.size(), a.navFlags.size(), a.nextChoice.size()};
+    };
+    std::ostringstream plain;
+    for (int k = 0; k < 12; ++k)
+        plain << "<Agent rad=\"0.25\" remove_at_goal=\"true\"><pos x=\"" << k << "\" y=\"0\"/><goal x=\"" << k
+              << "\" y=\"3\"/><Policy id=\"0\"/></Agent>\n";
+    const Loaded l = load("no-venue.xml", simulation("<World type=\"Infinite\"/>\n", plain.str(), 20));
+    BOOST_REQUIRE_MESSAGE(l.spec, l.messages);
+    Simulation sim(*l.spec);
+    sim.setReorderInterval(1);
+    BOOST_TEST(!sim.agents().navigationColumns);
+    while (!sim.finished()) {
+        sim.stepCoarse();
+        for (const std::size_t n : columnSizes(sim.agents())) BOOST_TEST_REQUIRE(n == 0u);
+    }
+    BOOST_TEST(sim.evacuations().size() == 12u);
+
+    const Loaded v = load("venue-columns.xml", fourExits(R"(<ExitSet id="all" choice="nearest" exits="south north west east"/>)",
+                                                         agentsAt(grid(4, 4, 6, 6, 2.0), "out"), "", 30));
+    BOOST_REQUIRE_MESSAGE(v.spec, v.messages);
+    Simulation venue(*v.spec);
+    venue.setReorderInterval(1);
+    BOOST_TEST(venue.agents().navigationColumns);
+    while (!venue.finished()) {
+        venue.stepCoarse();
+        for (const std::size_t n : columnSizes(venue.agents())) BOOST_TEST_REQUIRE(n == venue.agents().size());
+    }
+    BOOST_TEST(venue.evacuations().size() > 0u);
+}
+
 BOOST_AUTO_TEST_CASE(agents_walk_round_the_end_of_a_long_wall_to_a_goal_behind_it) {
     // Infinite world, a 16 m wall across the way; plain goals (no journey) navigate too.
     std::string world = "<World type=\"Infinite\">\n<Navigation/>\n" + wall(-8, 0, 8, 0) + "</World>\n";

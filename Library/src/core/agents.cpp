@@ -30,14 +30,16 @@ std::size_t AgentStore::add(const AgentSpec& s, int policyIndex, int recordIndex
     viewDir.push_back(toGoal.squaredNorm() > 0 ? Vec2(toGoal.normalized()) : Vec2(1, 0));
     density.push_back(0.0);
     contactAccel.push_back(Vec2(0, 0));
-    journey.push_back(-1);
-    stage.push_back(0);
-    target.push_back(-1);
-    navDistance.push_back(-1.0);
-    navDir.push_back(Vec2(0, 0));
-    holdUntil.push_back(0.0);
-    navFlags.push_back(0);
-    nextChoice.push_back(0.0);
+    if (navigationColumns) {
+        journey.push_back(-1);
+        stage.push_back(0);
+        target.push_back(-1);
+        navDistance.push_back(-1.0);
+        navDir.push_back(Vec2(0, 0));
+        holdUntil.push_back(0.0);
+        navFlags.push_back(0);
+        nextChoice.push_back(0.0);
+    }
     group.push_back(s.groupIndex);
     return id.size() - 1;
 }

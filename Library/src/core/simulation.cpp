@@ -75,8 +75,9 @@ Simulation::Simulation(ScenarioSpec specIn)
     std::stable_sort(pending_.begin(), pending_.end(), [&](std::size_t a, std::size_t b) {
         return spec.agents[a].startTime < spec.agents[b].startTime;
     });
+    agents_.navigationColumns = Navigation::needed(spec_);
     agents_.reserve(spec.agents.size());
-    if (Navigation::needed(spec_)) navigation_ = std::make_unique<Navigation>(spec_, world_);
+    if (agents_.navigationColumns) navigation_ = std::make_unique<Navigation>(spec_, world_);
     health_.init(spec_);
     resolveRamps();
     activatePending();

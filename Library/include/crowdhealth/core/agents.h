@@ -39,7 +39,7 @@ struct AgentStore {
     std::vector<double> density;      ///< SPH density with h = 1 m, walls included (1/m² × mass)
     std::vector<Vec2> contactAccel;   ///< sum of contact accelerations of the last step (m/s²)
 
-    // navigation state (crowdhealth/navigation/navigation.h; untouched without a venue)
+    // navigation state (crowdhealth/navigation/navigation.h): kept only with navigationColumns
     std::vector<int> journey;         ///< index into VenueSpec::journeys, -1: none
     std::vector<int> stage;           ///< journey stage: waypoint index, = waypoints: leaving
     std::vector<int> target;          ///< Navigation target index, -1: none (straight to `goal`)
@@ -51,6 +51,12 @@ struct AgentStore {
 
     // social groups (ScenarioSpec::groups)
     std::vector<int> group;           ///< index into ScenarioSpec::groups, -1: walks alone
+
+    /// Whether the navigation columns (journey … nextChoice) are kept. True for a store built by
+    /// hand; a Simulation without Navigation (no venue, journey, source or premovement time)
+    /// clears it before its first agent, and they then stay empty (53 bytes per agent: 50 MiB for
+    /// a million). Readers outside Navigation test it first.
+    bool navigationColumns = true;
 
     std::size_t size() const { return id.size(); }
     bool empty() const { return id.empty(); }
@@ -70,13 +76,14 @@ struct AgentStore {
     /// Room for n agents in every column (one allocation each instead of repeated doubling).
     void reserve(std::size_t n);
 
-    /// Calls f(column) for every column above (a new column must be added here too).
+    /// Calls f(column) for every column above that is kept (a new column must be added here too).
     template <class F>
     void forEachColumn(F&& f) {
         f(id), f(record), f(policy), f(radius), f(prefSpeed), f(maxSpeed), f(basePrefSpeed), f(baseMaxSpeed);
         f(maxAcceleration), f(mass), f(goalRadius), f(removeAtGoal), f(hasGoal), f(goal);
         f(pos), f(vel), f(prefVel), f(viewDir), f(density), f(contactAccel);
-        f(journey), f(stage), f(target), f(navDistance), f(navDir), f(holdUntil), f(navFlags), f(nextChoice);
+        if (navigationColumns)
+            f(journey), f(stage), f(target), f(navDistance), f(navDir), f(holdUntil), f(navFlags), f(nextChoice);
         f(group);
     }
 };
