@@ -341,9 +341,9 @@ RunOutcome simulateAndWrite(ch::Simulation& sim, const RunPlan& plan, const fs::
     try {
         session->begin();
         if (!probeDone) probe();
-        // Once every agent is in the world (at once for a crowd placed at t = 0).
+        // Once every agent is in the world (at once for a crowd placed at t = 0); a no-op after.
         auto release = [&] {
-            if (hooks.releaseAgentSpecs && !sim.agentSpecsReleased()) sim.releaseAgentSpecs();
+            if (hooks.releaseAgentSpecs) sim.releaseAgentSpecs();
         };
         release();
         while (!session->done()) {
