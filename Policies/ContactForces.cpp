@@ -145,10 +145,8 @@ void ContactForces::prepare(const StepContext& ctx) {
             const double reachMax = D + maxRadius;
             // The step's list, or the grid's agents where it does not reach (tests without lists),
             // through one sum (PairSums.h: eight entries at a time where the CPU has AVX-512).
-            const std::span<const NeighbourAgent> list = ctx.neighbourList(i, reachMax, agentsNear);
             pairs::ContactInput in;
-            in.entries = list.data();
-            in.count = list.size();
+            pairs::setList(in, ctx, i, reachMax, agentsNear);
             in.radius = A.radius.data();
             in.radiusI = D;
             in.reach2 = reachMax * reachMax;

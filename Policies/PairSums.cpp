@@ -27,6 +27,29 @@ namespace {
 
 static_assert(sizeof(Vec2) == 16, "the AVX-512 build reads v_j as the words 2j and 2j + 1 of the column");
 
+/// Entry k of a list as the sums read it: offset (x, y) and agent index j.
+struct Entry {
+    double x, y;
+    std::size_t j;
+};
+/// The whole entries of a list.
+struct WholeEntries {
+    const NeighbourAgent* e;
+    Entry operator[](std::size_t k) const {
+        return {e[k].offset.x(), e[k].offset.y(), static_cast<std::size_t>(e[k].index)};
+    }
+};
+/// A stored list by index: the offsets p_j − p_i computed here (IndexList).
+struct IndexedEntries {
+    const int* idx;
+    const Vec2* p;
+    Vec2 origin;
+    Entry operator[](std::size_t k) const {
+        const std::size_t j = static_cast<std::size_t>(idx[k]);
+        return {p[j].x() - origin.x(), p[j].y() - origin.y(), j};
+    }
+};
+
 /// SPH, the reference: one pair after the other, each skipped or added as the model says.
 CH_PAIRS_NO_CONTRACT
 Vec2 sphScalar(const SphInput& in) {
@@ -59,30 +82,29 @@ Vec2 sphScalar(const SphInput& in) {
 
 /// SPH's density, the reference (SPH::prepare's loop over the list through forEachNeighbour: an
 /// entry at exactly h adds m_j · 0, which changes no sum, so it is skipped here).
-CH_PAIRS_NO_CONTRACT
-double densityScalar(const DensityInput& in) {
+template <class List>
+CH_PAIRS_NO_CONTRACT double densityScalar(const DensityInput& in, const List& list) {
     double rho = in.start;
     for (std::size_t k = 0; k < in.count; ++k) {
-        const NeighbourAgent& nb = in.entries[k];
-        const double x = nb.offset.x(), y = nb.offset.y();
-        const double r2 = x * x + y * y;
+        const Entry nb = list[k];
+        const double r2 = nb.x * nb.x + nb.y * nb.y;
         if (!(r2 < in.h2)) continue;
         const double d = in.h2 - r2;
-        rho += in.mass[nb.index] * (in.c6 * d * d * d);
+        rho += in.mass[nb.j] * (in.c6 * d * d * d);
     }
     return rho;
 }
 
 /// ContactForces' agent springs, the reference (ContactForces::prepare's loop over the list).
-CH_PAIRS_NO_CONTRACT
-Vec2 contactScalar(const ContactInput& in) {
+template <class List>
+CH_PAIRS_NO_CONTRACT Vec2 contactScalar(const ContactInput& in, const List& list) {
     double ax = 0, ay = 0;
     for (std::size_t k = 0; k < in.count; ++k) {
-        const NeighbourAgent& nb = in.entries[k];
-        const double x = nb.offset.x(), y = nb.offset.y();
+        const Entry nb = list[k];
+        const double x = nb.x, y = nb.y;
         const double d2 = x * x + y * y;
         if (!(d2 <= in.reach2)) continue;
-        const double reach = in.radiusI + in.radius[nb.index];
+        const double reach = in.radiusI + in.radius[nb.j];
         if (d2 >= reach * reach) continue;  // no overlap: no square root needed
         const double r = std::sqrt(d2);
         const double overlap = reach - r;
@@ -119,6 +141,35 @@ CH_PAIRS_AVX512 [[gnu::always_inline]] inline void prefetchFollowing(const Neigh
     const std::size_t lines = (count * sizeof(NeighbourAgent)) / 64 + 1;
     for (std::size_t l = 0; l < lines; ++l) _mm_prefetch(reinterpret_cast<const char*>(next + 64 * l), _MM_HINT_T0);
 }
+
+/// The whole entries of a list, eight at a time (lanes::load8), the next lists prefetched.
+struct WholeLanes {
+    const NeighbourAgent* e;
+    CH_PAIRS_AVX512 void prefetch(std::size_t count) const { prefetchFollowing(e, count); }
+    CH_PAIRS_AVX512 lanes::Entries8 operator()(std::size_t k, std::size_t left) const {
+        return lanes::load8<true>(e + k, left);
+    }
+};
+/// A stored list by index, eight at a time: the indices loaded, the positions gathered, the
+/// offsets p_j − p_i computed in the lanes (the scalar build's subtraction, so the same bits).
+struct IndexedLanes {
+    const int* idx;
+    const double* p;  ///< x of agent j at 2j, y at 2j + 1
+    __m512d ox, oy;
+    CH_PAIRS_AVX512 void prefetch(std::size_t count) const {
+        const std::uintptr_t next = reinterpret_cast<std::uintptr_t>(idx + count) + kPrefetchDistance / 4;
+        _mm_prefetch(reinterpret_cast<const char*>(next), _MM_HINT_T0);
+    }
+    CH_PAIRS_AVX512 CH_PAIRS_NO_CONTRACT lanes::Entries8 operator()(std::size_t k, std::size_t left) const {
+        lanes::Entries8 g;
+        g.live = left >= 8 ? __mmask8(0xff) : static_cast<__mmask8>((1u << left) - 1u);
+        g.index = _mm256_maskz_loadu_epi32(g.live, idx + k);
+        const __m256i twice = _mm256_add_epi32(g.index, g.index);
+        g.x = _mm512_sub_pd(_mm512_mask_i32gather_pd(_mm512_setzero_pd(), g.live, twice, p, 8), ox);
+        g.y = _mm512_sub_pd(_mm512_mask_i32gather_pd(_mm512_setzero_pd(), g.live, twice, p + 1, 8), oy);
+        return g;
+    }
+};
 
 /// SPH, eight entries per step (crowdhealth/core/list_lanes.h): the neighbours' columns gathered,
 /// every term computed in the lanes with the scalar build's expression, and the lanes that fail a
@@ -198,15 +249,15 @@ Vec2 sphAvx512(const SphInput& in) {
 }
 /// SPH's density, eight entries per step, the terms added in list order as above (the sum starts
 /// at m_i W(0) > 0 and every term is ≥ 0, so adding +0 for a skipped lane changes nothing).
-CH_PAIRS_AVX512 CH_PAIRS_NO_CONTRACT
-double densityAvx512(const DensityInput& in) {
+template <class Lanes>
+CH_PAIRS_AVX512 CH_PAIRS_NO_CONTRACT double densityAvx512(const DensityInput& in, const Lanes& list) {
     const __m512d h2 = _mm512_set1_pd(in.h2), c6 = _mm512_set1_pd(in.c6);
     alignas(64) double t[8];
     double rho = in.start;
-    prefetchFollowing(in.entries, in.count);
+    list.prefetch(in.count);
     for (std::size_t k = 0; k < in.count; k += 8) {
         const std::size_t left = in.count - k < 8 ? in.count - k : 8;
-        const lanes::Entries8 g = lanes::load8<true>(in.entries + k, left);
+        const lanes::Entries8 g = list(k, left);
         const __m512d r2 = _mm512_add_pd(_mm512_mul_pd(g.x, g.x), _mm512_mul_pd(g.y, g.y));
         const __mmask8 use = g.live & _mm512_cmp_pd_mask(r2, h2, _CMP_LT_OQ);
         const __m512d d = _mm512_sub_pd(h2, r2);
@@ -218,18 +269,18 @@ double densityAvx512(const DensityInput& in) {
 }
 
 /// ContactForces' agent springs, eight entries per step, the terms added in list order as above.
-CH_PAIRS_AVX512 CH_PAIRS_NO_CONTRACT
-Vec2 contactAvx512(const ContactInput& in) {
+template <class Lanes>
+CH_PAIRS_AVX512 CH_PAIRS_NO_CONTRACT Vec2 contactAvx512(const ContactInput& in, const Lanes& list) {
     const __m512d reach2 = _mm512_set1_pd(in.reach2), own = _mm512_set1_pd(in.radiusI);
     const __m512d stiffness = _mm512_set1_pd(in.stiffness), tiny = _mm512_set1_pd(1e-12);
     const __m512d zero = _mm512_setzero_pd();
     const __m512i signBit = _mm512_set1_epi64(static_cast<long long>(0x8000000000000000ULL));
     alignas(64) double tx[8], ty[8];
     double ax = 0, ay = 0;
-    prefetchFollowing(in.entries, in.count);
+    list.prefetch(in.count);
     for (std::size_t k = 0; k < in.count; k += 8) {
         const std::size_t left = in.count - k < 8 ? in.count - k : 8;
-        const lanes::Entries8 g = lanes::load8<true>(in.entries + k, left);
+        const lanes::Entries8 g = list(k, left);
         const __m512d d2 = _mm512_add_pd(_mm512_mul_pd(g.x, g.x), _mm512_mul_pd(g.y, g.y));
         const __m512d reach = _mm512_add_pd(own, column8(in.radius, g));
         __mmask8 use = g.live & _mm512_cmp_pd_mask(d2, reach2, _CMP_LE_OQ);
@@ -248,6 +299,12 @@ Vec2 contactAvx512(const ContactInput& in) {
         }
     }
     return {ax, ay};
+}
+#endif
+
+#ifdef CH_PAIRS_X86
+CH_PAIRS_AVX512 IndexedLanes indexedLanes(const IndexList& b) {
+    return IndexedLanes{b.indices, b.positions[0].data(), _mm512_set1_pd(b.origin.x()), _mm512_set1_pd(b.origin.y())};
 }
 #endif
 
@@ -270,17 +327,23 @@ Vec2 sphForce(const SphInput& in) {
 }
 
 double sphDensity(const DensityInput& in) {
+    const IndexList& b = in.byIndex;
 #ifdef CH_PAIRS_X86
-    if (gPath.load(std::memory_order_relaxed) == 1) return densityAvx512(in);
+    if (gPath.load(std::memory_order_relaxed) == 1)
+        return b.indices != nullptr ? densityAvx512(in, indexedLanes(b)) : densityAvx512(in, WholeLanes{in.entries});
 #endif
-    return densityScalar(in);
+    return b.indices != nullptr ? densityScalar(in, IndexedEntries{b.indices, b.positions, b.origin})
+                                : densityScalar(in, WholeEntries{in.entries});
 }
 
 Vec2 contactForce(const ContactInput& in) {
+    const IndexList& b = in.byIndex;
 #ifdef CH_PAIRS_X86
-    if (gPath.load(std::memory_order_relaxed) == 1) return contactAvx512(in);
+    if (gPath.load(std::memory_order_relaxed) == 1)
+        return b.indices != nullptr ? contactAvx512(in, indexedLanes(b)) : contactAvx512(in, WholeLanes{in.entries});
 #endif
-    return contactScalar(in);
+    return b.indices != nullptr ? contactScalar(in, IndexedEntries{b.indices, b.positions, b.origin})
+                                : contactScalar(in, WholeEntries{in.entries});
 }
 
 int path() { return gPath.load(); }

@@ -118,10 +118,8 @@ void SPH::prepare(const StepContext& ctx) {
             double rho = A.mass[i] * K.poly6(0.0);  // the agent itself (r = 0), then the others
             // The step's list, or the grid's agents where it does not reach (tests without lists),
             // through one sum (PairSums.h: eight at a time where the CPU has AVX-512).
-            const std::span<const NeighbourAgent> list = ctx.neighbourList(i, h, agentsNear);
             pairs::DensityInput in;
-            in.entries = list.data();
-            in.count = list.size();
+            pairs::setList(in, ctx, i, h, agentsNear);
             in.mass = A.mass.data();
             in.h2 = K.h2;
             in.c6 = K.c6;

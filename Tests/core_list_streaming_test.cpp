@@ -12,6 +12,7 @@
 
 #include <cstring>
 #include <random>
+#include <tuple>
 
 using namespace ch;
 
@@ -107,4 +108,42 @@ BOOST_AUTO_TEST_CASE(a_component_that_does_not_say_is_taken_to_read_stored_lists
     for (const char* name : {"SPH", "ContactForces"}) BOOST_TEST(test::make(name)->readsStepLists(), name);
     for (const char* name : {"SocialForcesAvoidance", "GoalReachingForce", "TtcaDca", "ORCA", "RVO", "PowerLaw"})
         BOOST_TEST(!test::make(name)->readsStepLists(), name);
+}
+
+BOOST_AUTO_TEST_CASE(step_context_helpers_read_the_stored_index_lists_as_the_grid_would) {
+    // A 7 × 7 lattice of 1 m spacing: with a query radius of 1 m, the four nearest neighbours are
+    // exactly on the circle, and the test that keeps them (|offset|² <= r²) must be the same
+    // whether StepContext reads the stored lists (indices, offsets computed on reading) or the grid.
+    test::Frame f;
+    for (int y = 0; y < 7; ++y)
+        for (int x = 0; x < 7; ++x) f.add(Vec2(x, y), Vec2(10, y), Vec2(0, 0));
+    StepContext withLists = f.context();
+    const std::vector<int> group(f.agents.size(), 0);
+    NeighbourLists lists;
+    lists.build(f.agents.pos, f.grid, f.world, group, {1.5});
+    withLists.lists = &lists;
+    const StepContext onGrid = f.context();
+    using Found = std::vector<std::tuple<int, double, double, double>>;
+    const auto found = [](const StepContext& ctx, std::size_t i, double r) {
+        Found out;
+        ctx.forEachNeighbour(i, r, [&](int j, const Vec2& d, double d2) { out.emplace_back(j, d.x(), d.y(), d2); });
+        std::sort(out.begin(), out.end());
+        return out;
+    };
+    std::vector<NeighbourAgent> scratch, fromGrid;
+    for (std::size_t i = 0; i < f.agents.size(); ++i) {
+        BOOST_TEST_REQUIRE(withLists.listReaches(i, 1.0));
+        const Found a = found(withLists, i, 1.0), b = found(onGrid, i, 1.0);
+        BOOST_TEST(a.size() == b.size());
+        BOOST_TEST((a == b), "agent " << i);
+        const bool inner = i % 7 != 0 && i % 7 != 6 && i / 7 != 0 && i / 7 != 6;
+        if (inner) BOOST_TEST(a.size() == 4u);  // the four at exactly 1 m
+        // neighbourList: the stored list (with its offsets) when it reaches, every entry exact.
+        const std::span<const NeighbourAgent> list = withLists.neighbourList(i, 1.0, scratch);
+        BOOST_TEST(list.size() == lists.indices(i).size());
+        for (const NeighbourAgent& nb : list)
+            BOOST_TEST((Vec2(nb.offset) == f.agents.pos[static_cast<std::size_t>(nb.index)] - f.agents.pos[i]));
+        BOOST_TEST(!onGrid.listReaches(i, 1.0));
+        BOOST_TEST(onGrid.neighbourList(i, 1.0, fromGrid).size() == b.size());
+    }
 }

@@ -260,3 +260,60 @@ BOOST_AUTO_TEST_CASE(contact_force_looks_no_farther_than_asked) {
         BOOST_TEST(pairs::contactForce(in).x() == -50.0 * (0.85 - 0.7), boost::test_tools::tolerance(1e-12));
     }
 }
+
+BOOST_AUTO_TEST_CASE(sums_over_a_stored_list_by_index_have_the_bits_of_its_whole_entries) {
+    // NeighbourLists stores indices; SPH's density and ContactForces read them through
+    // pairs::IndexList, computing each offset p_j − p_i themselves. The same list as whole entries
+    // (offsets computed the same way) must give the same bits, in every build, at every length.
+    RestorePath restore;
+    const Crowd c(31);
+    std::mt19937_64 rng(13);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    std::uniform_int_distribution<int> index(0, kAgents - 1);
+    std::vector<Vec2> pos;
+    for (int j = 0; j < kAgents; ++j) pos.emplace_back(3.0 + 0.9 * u(rng), -2.0 + 0.9 * u(rng));
+    pos[5] = pos[0];  // a neighbour at distance 0
+    int pushed = 0;
+    for (const int path : paths()) {
+        BOOST_TEST_REQUIRE(pairs::setPath(path));
+        for (int n = 0; n <= 40; ++n) {
+            const std::size_t self = static_cast<std::size_t>(n % 3);
+            std::vector<int> indices;
+            std::vector<NeighbourAgent> entries;
+            for (int k = 0; k < n; ++k) {
+                const int j = k % 9 == 2 ? 5 : index(rng);
+                indices.push_back(j);
+                entries.push_back(NeighbourAgent{pos[static_cast<std::size_t>(j)] - pos[self], j});
+            }
+            const pairs::IndexList byIndex{indices.data(), pos.data(), pos[self]};
+
+            pairs::DensityInput d;
+            d.count = entries.size();
+            d.mass = c.mass.data();
+            d.h2 = 0.64;
+            d.c6 = 3.0;
+            d.start = 0.5;
+            d.entries = entries.data();
+            const double whole = pairs::sphDensity(d);
+            d.entries = nullptr;
+            d.byIndex = byIndex;
+            const double indexed = pairs::sphDensity(d);
+            BOOST_TEST(std::memcmp(&whole, &indexed, sizeof whole) == 0, "path " << path << " n " << n);
+
+            pairs::ContactInput k;
+            k.count = entries.size();
+            k.radius = c.radius.data();
+            k.radiusI = 0.4;
+            k.reach2 = 0.7 * 0.7;
+            k.stiffness = 50.0;
+            k.entries = entries.data();
+            const Vec2 a = pairs::contactForce(k);
+            k.entries = nullptr;
+            k.byIndex = byIndex;
+            const Vec2 b = pairs::contactForce(k);
+            BOOST_TEST(sameBits(a, b), "path " << path << " n " << n << ": " << a.transpose() << " against " << b.transpose());
+            pushed += a.squaredNorm() > 0;
+        }
+    }
+    BOOST_TEST(pushed > 20);  // the lists do touch agent i
+}

@@ -433,6 +433,36 @@ BOOST_AUTO_TEST_CASE(simulation_records_the_contact_acceleration) {
     BOOST_TEST(A.contactAccel[0].norm() >= 2 * 50 * (0.5 - d) - 1e-12);
 }
 
+BOOST_AUTO_TEST_CASE(contact_reaches_across_a_torus_seam) {
+    // Two agents touching across the seam of a 10 m torus push each other as two agents touching
+    // in the open plane do: the stored lists' offsets are the shortest ones on a torus, and the
+    // pair sums (pairs::setList) must not compute them as plain differences of positions there.
+    const auto run = [](bool torus) {
+        PolicySpec p = policy(0, OptimisationMethod::Gradient, {component("ContactForces", {{"range", 1}}, 2.0)}, 0.5, {},
+                              StepTiming::Fine, 0.0);
+        p.steps[0].stopAtGoal = false;
+        const double x = torus ? 4.8 : -0.2;  // 0.4 m apart: across the seam at ±5, or across 0
+        AgentSpec a = agent(1, Vec2(x, 0), Vec2(x, 0), 0.25), b = agent(2, Vec2(-x, 0), Vec2(-x, 0), 0.25);
+        a.goal.reset();
+        b.goal.reset();
+        ScenarioSpec s = scenario({a, b}, {p}, 0.1, 1.0);
+        s.deltaTimeFine = 0.1;  // one fine step per coarse step
+        if (torus) {
+            s.world.type = WorldType::Toric;
+            s.world.width = s.world.height = 10.0;
+        }
+        Simulation sim(s);
+        sim.stepCoarse();
+        const AgentStore& A = sim.agents();  // agent 1's report (the store may have re-ordered them)
+        return A.contactAccel[A.id[0] == 1 ? 0 : 1];
+    };
+    const Vec2 plane = run(false), torus = run(true);
+    BOOST_TEST(plane.x() < 0);  // agent 1 (left, at −0.2) is pushed left
+    // On the torus agent 1 sits at 4.8, its neighbour across the seam at −4.8 ≡ 5.2: pushed left too.
+    BOOST_TEST(std::abs(torus.x() - plane.x()) < 1e-9, torus.transpose() << " plane " << plane.transpose());
+    BOOST_TEST(std::abs(torus.y()) < 1e-12);
+}
+
 // ---- the base case ---------------------------------------------------------------------------
 
 BOOST_AUTO_TEST_CASE(base_case_walls_hold) {

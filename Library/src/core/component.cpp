@@ -8,7 +8,7 @@
 namespace ch {
 
 void StepContext::segmentsNear(std::size_t i, double radius, std::vector<int>& out) const {
-    if (lists == nullptr || i >= lists->size() || radius > lists->radius(i)) {
+    if (!listReaches(i, radius)) {
         world.segmentsNear(agents.pos[i], radius, out);
         return;
     }

@@ -33,13 +33,27 @@ namespace {
 /// Entries a path may write past the end of a list (the buffer is opened with this much slack).
 constexpr std::size_t kGatherSlack = 8;
 
+/// Writes a list entry at `at`: the whole entry (streamed lists) or the index alone (stored lists,
+/// whose offsets are computed where they are read).
+inline void put(NeighbourAgent* list, std::size_t at, double dx, double dy, int j) {
+    NeighbourAgent& e = list[at];
+    e.offset.x() = dx;
+    e.offset.y() = dy;
+    e.index = j;
+}
+inline void put(int* list, std::size_t at, double, double, int j) { list[at] = j; }
+/// Whether a gather writes whole entries (else indices alone).
+template <class Entry>
+constexpr bool kWhole = std::is_same_v<Entry, NeighbourAgent>;
+
 /// The generic gather: the scalar branch-free append (every candidate is written at `count`, which
 /// advances only for the others within r), over any grid.
-std::size_t gatherGeneric(const PointGrid& grid, const Vec2& p, double r, int self, NeighbourAgent* list) {
+template <class Entry>
+std::size_t gatherGeneric(const PointGrid& grid, const Vec2& p, double r, int self, Entry* list) {
     std::size_t count = 0;
     const double r2 = r * r;
     grid.forEachCandidate(p, r, [&](int j, const Vec2& d, double d2) {
-        list[count] = NeighbourAgent{d, j};
+        put(list, count, d.x(), d.y(), j);
         count += static_cast<std::size_t>((d2 <= r2) & (j != self));
     });
     return count;
@@ -53,19 +67,21 @@ using Run = PointGrid::Run;
 /// The branch-free append of candidates [k0, k1) of a plane grid's order (x, y, index as
 /// PointGrid::sortedX, sortedY, order) to `list` at `count`: the scalar gather, and the tails of the
 /// vector ones.
+template <class Entry>
 inline void appendScalar(const double* xs, const double* ys, const int* idx, int k0, int k1, const Vec2& p, double r2,
-                         int self, NeighbourAgent* list, std::size_t& count) {
+                         int self, Entry* list, std::size_t& count) {
     for (int k = k0; k < k1; ++k) {
         const Vec2 d = Vec2(xs[k], ys[k]) - p;
         const int j = idx[k];
-        list[count] = NeighbourAgent{d, j};
+        put(list, count, d.x(), d.y(), j);
         count += static_cast<std::size_t>((d.squaredNorm() <= r2) & (j != self));
     }
 }
 
 /// The same append over the runs of PointGrid::rowRuns (plane grids).
+template <class Entry>
 std::size_t gatherRuns(const PointGrid& grid, const Run* runs, int nRuns, const Vec2& p, double r, int self,
-                       NeighbourAgent* list) {
+                       Entry* list) {
     std::size_t count = 0;
     for (int q = 0; q < nRuns; ++q)
         appendScalar(grid.sortedX().data(), grid.sortedY().data(), grid.order().data(), runs[q].begin, runs[q].end, p,
@@ -76,9 +92,10 @@ std::size_t gatherRuns(const PointGrid& grid, const Run* runs, int nRuns, const 
 #ifdef CH_NL_X86
 /// AVX2: per row run (PointGrid::rowRun), the offsets and the distance test four lanes at a time,
 /// then the branch-free append lane by lane; the run's last < 4 candidates as in gatherGeneric.
+template <class Entry>
 CH_NL_AVX2 CH_NL_NO_CONTRACT
 std::size_t gatherAvx2(const PointGrid& grid, const Run* runs, int nRuns, const Vec2& p, double r, int self,
-                       NeighbourAgent* list) {
+                       Entry* list) {
     const double* xs = grid.sortedX().data();
     const double* ys = grid.sortedY().data();
     const int* idx = grid.order().data();
@@ -98,10 +115,7 @@ std::size_t gatherAvx2(const PointGrid& grid, const Run* runs, int nRuns, const 
             _mm256_store_pd(ay, dy);
             for (int l = 0; l < 4; ++l) {
                 const int j = idx[k + l];
-                NeighbourAgent& e = list[count];
-                e.offset.x() = ax[l];
-                e.offset.y() = ay[l];
-                e.index = j;
+                put(list, count, ax[l], ay[l], j);
                 count += ((in >> l) & 1u) & static_cast<unsigned>(j != self);
             }
         }
@@ -132,21 +146,23 @@ constexpr Interleave kInterleave = makeInterleave();
 /// AVX-512: per row run, eight candidates at a time (the run's tail by masked loads): the lanes
 /// within r and not self are compressed to the front of the x, y and index registers, interleaved
 /// into eight 24-byte entries by two permutes per register, stored whole (three 64-byte stores)
-/// and `count` advances by their number. The stores may run up to kGatherSlack entries past the
+/// and `count` advances by their number. Index lists store the compressed indices alone. The stores may run up to kGatherSlack entries past the
 /// list's end; entries past `count` are overwritten by the next list or never read.
+template <class Entry>
 CH_NL_AVX512 CH_NL_NO_CONTRACT
 std::size_t gatherWide(const PointGrid& grid, const Run* runs, int nRuns, const Vec2& p, double r, int self,
-                       NeighbourAgent* list) {
+                       Entry* list) {
     const double* xs = grid.sortedX().data();
     const double* ys = grid.sortedY().data();
     const int* idx = grid.order().data();
     const __m512d px = _mm512_set1_pd(p.x()), py = _mm512_set1_pd(p.y()), r2v = _mm512_set1_pd(r * r);
     const __m256i selfv = _mm256_set1_epi32(self);
     __m512i fromXY[3], fromIndex[3];
-    for (int v = 0; v < 3; ++v) {
-        fromXY[v] = _mm512_loadu_si512(kInterleave.fromXY.data() + 8 * v);
-        fromIndex[v] = _mm512_loadu_si512(kInterleave.fromIndex.data() + 8 * v);
-    }
+    if constexpr (kWhole<Entry>)
+        for (int v = 0; v < 3; ++v) {
+            fromXY[v] = _mm512_loadu_si512(kInterleave.fromXY.data() + 8 * v);
+            fromIndex[v] = _mm512_loadu_si512(kInterleave.fromIndex.data() + 8 * v);
+        }
     std::size_t count = 0;
     for (int q = 0; q < nRuns; ++q) {
         const int k0 = runs[q].begin, k1 = runs[q].end;
@@ -159,20 +175,26 @@ std::size_t gatherWide(const PointGrid& grid, const Run* runs, int nRuns, const 
             const __m512d d2 = _mm512_add_pd(_mm512_mul_pd(dx, dx), _mm512_mul_pd(dy, dy));
             const __mmask8 take = static_cast<__mmask8>(_mm512_mask_cmp_pd_mask(live, d2, r2v, _CMP_LE_OQ) &
                                                         _mm256_cmpneq_epi32_mask(j, selfv));
-            const __m512d cx = _mm512_maskz_compress_pd(take, dx);
-            const __m512d cy = _mm512_maskz_compress_pd(take, dy);
-            const __m512d ci = _mm512_castsi512_pd(_mm512_maskz_cvtepu32_epi64(0xff, _mm256_maskz_compress_epi32(take, j)));
-            double* to = reinterpret_cast<double*>(list + count);
-            for (int v = 0; v < 3; ++v) {
-                const __m512d xy = _mm512_permutex2var_pd(cx, fromXY[v], cy);
-                _mm512_storeu_pd(to + 8 * v,
-                                 _mm512_mask_permutexvar_pd(xy, kInterleave.indexLanes[v], fromIndex[v], ci));
+            if constexpr (kWhole<Entry>) {
+                const __m512d cx = _mm512_maskz_compress_pd(take, dx);
+                const __m512d cy = _mm512_maskz_compress_pd(take, dy);
+                const __m512d ci =
+                    _mm512_castsi512_pd(_mm512_maskz_cvtepu32_epi64(0xff, _mm256_maskz_compress_epi32(take, j)));
+                double* to = reinterpret_cast<double*>(list + count);
+                for (int v = 0; v < 3; ++v) {
+                    const __m512d xy = _mm512_permutex2var_pd(cx, fromXY[v], cy);
+                    _mm512_storeu_pd(to + 8 * v,
+                                     _mm512_mask_permutexvar_pd(xy, kInterleave.indexLanes[v], fromIndex[v], ci));
+                }
+            } else {
+                _mm256_storeu_si256(reinterpret_cast<__m256i*>(list + count), _mm256_maskz_compress_epi32(take, j));
             }
             count += static_cast<std::size_t>(__builtin_popcount(take));
         }
     }
     return count;
 }
+
 #endif
 
 /// Whether this CPU runs gather path `path`.
@@ -187,8 +209,9 @@ bool cpuRuns(int path) {
 /// The gather path in use: the best this CPU runs, found once when the program starts.
 std::atomic<int> gGatherPath{cpuRuns(2) ? 2 : cpuRuns(1) ? 1 : 0};
 
+template <class Entry>
 std::size_t gatherRunsOn(int path, const PointGrid& grid, const Run* runs, int nRuns, const Vec2& p, double r,
-                         int self, NeighbourAgent* list) {
+                         int self, Entry* list) {
 #ifdef CH_NL_X86
     switch (path) {
     case 2: return gatherWide(grid, runs, nRuns, p, r, self, list);
@@ -255,6 +278,10 @@ void NeighbourLists::build(const std::vector<Vec2>& positions, const PointGrid& 
     const std::size_t n = positions.size();
     streaming_ = false;
     const PointGrid& grid = prepareGrid(positions, stepGrid, world, group, rangeOfGroup);
+    gridUsed_ = &grid;
+    positions_ = &positions;
+    world_ = &world;
+    periodic_ = world.periodic();
     const int threads = std::max(1, omp_get_max_threads());
     if (agentBuffers_.size() < static_cast<std::size_t>(threads)) {
         agentBuffers_.resize(static_cast<std::size_t>(threads));
@@ -267,7 +294,7 @@ void NeighbourLists::build(const std::vector<Vec2>& positions, const PointGrid& 
 #pragma omp parallel num_threads(threads) if (parallelNeighbourLoop(n))
     {
         const int t = omp_get_thread_num();
-        BlockBuffer<NeighbourAgent>& out = agentBuffers_[static_cast<std::size_t>(t)];
+        BlockBuffer<int>& out = agentBuffers_[static_cast<std::size_t>(t)];
         BlockBuffer<int>& segOut = segmentBuffers_[static_cast<std::size_t>(t)];
         std::vector<int>& near = scratch_[static_cast<std::size_t>(t)];
         out.clear();
@@ -295,10 +322,29 @@ void NeighbourLists::bind(const std::vector<Vec2>& positions, const PointGrid& s
     gridUsed_ = &prepareGrid(positions, stepGrid, world, group, rangeOfGroup);
     positions_ = &positions;
     world_ = &world;
+    periodic_ = world.periodic();
     streaming_ = true;
     // No stored lists (size() = 0) until the next build(); the buffers keep their blocks.
     agentSlice_.clear();
     segmentSlice_.clear();
+}
+
+std::span<const NeighbourAgent> NeighbourLists::agents(std::size_t i, std::vector<NeighbourAgent>& scratch) const {
+    const std::span<const int> list = indices(i);
+    if (scratch.size() < list.size()) scratch.resize(std::max(list.size(), 2 * scratch.size()));
+    NeighbourAgent* out = scratch.data();
+    if (periodic_) {
+        for (std::size_t k = 0; k < list.size(); ++k) out[k] = NeighbourAgent{offset(i, list[k]), list[k]};
+        return {out, list.size()};
+    }
+    // The plane's offsets, p_j − p_i, exactly as the gather computed them from the grid's copy.
+    const Vec2* p = positions_->data();
+    const Vec2 pi = p[i];
+    for (std::size_t k = 0; k < list.size(); ++k) {
+        const int j = list[k];
+        out[k] = NeighbourAgent{p[static_cast<std::size_t>(j)] - pi, j};
+    }
+    return {out, list.size()};
 }
 
 void NeighbourLists::gather(std::size_t i, Scratch& scratch, std::span<const NeighbourAgent>& agents,

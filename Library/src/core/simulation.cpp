@@ -177,7 +177,7 @@ void Simulation::gatherQuery(std::size_t i, AgentQuery& q, NeighbourLists::Scrat
         lists_.gather(i, scratch, q.agents, q.segments);
         return;
     }
-    q.agents = lists_.agents(i);
+    q.agents = lists_.agents(i, scratch.agents);
     q.segments = lists_.segments(i);
 }
 

@@ -82,11 +82,11 @@ struct StepContext {
     template <class F>
     void forEachNeighbour(std::size_t i, double radius, F&& f) const {
         const double r2 = radius * radius;
-        if (const auto list = storedList(i, radius)) {
-            for (const NeighbourAgent& nb : *list) {
-                const double d2 = nb.distanceSquared();
-                if (d2 <= r2) f(nb.index, nb.offset, d2);
-            }
+        if (listReaches(i, radius)) {
+            lists->forEachAgent(i, [&](int j, const Vec2& d) {
+                const double d2 = d.squaredNorm();
+                if (d2 <= r2) f(j, d, d2);
+            });
             return;
         }
         const int self = static_cast<int>(i);
@@ -95,19 +95,18 @@ struct StepContext {
         });
     }
 
-    /// Agent i's stored neighbour list when the step's lists reach `radius` (every other agent
-    /// within it, and maybe some farther, in the order forEachNeighbour visits them), else none.
-    std::optional<std::span<const NeighbourAgent>> storedList(std::size_t i, double radius) const {
-        if (lists != nullptr && i < lists->size() && radius <= lists->radius(i)) return lists->agents(i);
-        return std::nullopt;
+    /// Whether the step's stored list of agent i reaches `radius` (it holds every other agent
+    /// within it, and maybe some farther, in the order forEachNeighbour visits them).
+    bool listReaches(std::size_t i, double radius) const {
+        return lists != nullptr && i < lists->size() && radius <= lists->radius(i);
     }
 
-    /// Every other agent within `radius` of agent i as a list, for loops that read the list
-    /// themselves (Policies/PairSums.h): the step's stored list when it reaches that far (it may
-    /// hold farther agents too: filter by distance), else forEachNeighbour's agents gathered into
-    /// `scratch`, in the same order. The span is valid until the scratch or the lists change.
+    /// Every other agent within `radius` of agent i as a list in `scratch`, for loops that read the
+    /// list themselves (Policies/PairSums.h): the step's stored list with its offsets when it
+    /// reaches that far (it may hold farther agents too: filter by distance), else
+    /// forEachNeighbour's agents, in the same order. The span is valid until the scratch changes.
     std::span<const NeighbourAgent> neighbourList(std::size_t i, double radius, std::vector<NeighbourAgent>& scratch) const {
-        if (const auto list = storedList(i, radius)) return *list;
+        if (listReaches(i, radius)) return lists->agents(i, scratch);
         scratch.clear();
         forEachNeighbour(i, radius, [&](int j, const Vec2& offset, double) { scratch.push_back(NeighbourAgent{offset, j}); });
         return scratch;

@@ -35,7 +35,10 @@ static_assert(sizeof(NeighbourAgent) == 24, "NeighbourAgent should stay 24 bytes
 /// the grid's visit order, so sums over it do not depend on the thread count) and every wall
 /// segment within radius(i) (ascending index). Built in parallel into per-thread buffers that are
 /// kept from step to step, so a step allocates nothing once the buffers have grown.
-/// Memory: 24 bytes per neighbour pair within range (about 14 per agent in a dense SPH crowd).
+/// Memory (issue 20): a list stores only its agents' indices, 4 bytes per neighbour pair within
+/// range (about 14 per agent in a dense SPH crowd); the offsets are computed where a list is read,
+/// from the positions the lists were built over (agents(), forEachAgent()), to the bit those the
+/// grid saw. So those positions must stay in place and unchanged until the lists are next built.
 class NeighbourLists {
 public:
     /// Rebuilds the lists for `positions` from `grid` (built over the same positions, cells of any
@@ -81,10 +84,30 @@ public:
     std::size_t size() const { return agentSlice_.size(); }
     /// The radius (m) agent i's lists were gathered with.
     double radius(std::size_t i) const { return rangeOfGroup_[static_cast<std::size_t>((*group_)[i])]; }
-    /// Other agents within radius(i).
-    std::span<const NeighbourAgent> agents(std::size_t i) const {
+    /// Other agents within radius(i): their indices in AgentStore, as stored.
+    std::span<const int> indices(std::size_t i) const {
         const Slice& s = agentSlice_[i];
         return {agentBuffers_[s.thread].data(s.block, s.begin), s.count};
+    }
+    /// positions[j] − positions[i] (the shortest such vector on a torus): the offset the grid saw
+    /// when it put j in i's list, to the bit.
+    Vec2 offset(std::size_t i, int j) const {
+        const std::vector<Vec2>& p = *positions_;
+        return periodic_ ? gridUsed_->offset(p[i], p[static_cast<std::size_t>(j)]) : Vec2(p[static_cast<std::size_t>(j)] - p[i]);
+    }
+    /// The positions the lists were built over (offset() reads them).
+    const std::vector<Vec2>& positions() const { return *positions_; }
+    /// Whether every offset is the plain difference positions[j] − positions[i] (not a torus):
+    /// readers may then compute the offsets themselves from indices() (Policies/PairSums.h).
+    bool plane() const { return !periodic_; }
+    /// Agent i's list with its offsets, written into `scratch` (kept by the caller: it grows to the
+    /// longest list and then allocates nothing); valid until `scratch` changes.
+    std::span<const NeighbourAgent> agents(std::size_t i, std::vector<NeighbourAgent>& scratch) const;
+    /// f(j, offset) for every agent of i's list, in its order, without a scratch.
+    template <class F>
+    void forEachAgent(std::size_t i, F&& f) const {
+        const std::span<const int> list = indices(i);
+        for (const int j : list) f(j, offset(i, j));
     }
     /// Wall segments within radius(i), ascending.
     std::span<const int> segments(std::size_t i) const {
@@ -169,20 +192,21 @@ private:
     /// when needed; also keeps group and rangeOfGroup.
     const PointGrid& prepareGrid(const std::vector<Vec2>& positions, const PointGrid& stepGrid, const World& world,
                                  const std::vector<int>& group, const std::vector<double>& rangeOfGroup);
-    /// Agent i's agent list, written where open(most) says (room for `most` entries); returns its
-    /// length. The one gather of build() and gather().
+    /// Agent i's agent list, written where open(most) says (room for `most` entries: indices for
+    /// build(), whole entries for gather()); returns its length. The one gather of both.
     template <class Open>
     std::size_t gatherAgents(const PointGrid& grid, const Vec2& p, double r, int self, Open&& open) const;
 
-    std::vector<BlockBuffer<NeighbourAgent>> agentBuffers_;  ///< one per thread
+    std::vector<BlockBuffer<int>> agentBuffers_;             ///< one per thread: agent indices
     std::vector<BlockBuffer<int>> segmentBuffers_;           ///< one per thread
     std::vector<std::vector<int>> scratch_;                  ///< one per thread: segment query
     std::vector<Slice> agentSlice_, segmentSlice_;           ///< per agent, into the buffers
     PointGrid fine_;  ///< the finer grid for long ranges (kept: no allocation per step)
     const std::vector<int>* group_ = nullptr;
     std::vector<double> rangeOfGroup_;
-    // bind(): what gather() reads.
+    // build() and bind(): what offset() and gather() read.
     bool streaming_ = false;
+    bool periodic_ = false;
     const std::vector<Vec2>* positions_ = nullptr;
     const PointGrid* gridUsed_ = nullptr;
     const World* world_ = nullptr;
