@@ -18,8 +18,10 @@ namespace ch {
 
 class World;
 
-/// A neighbouring agent of the query agent: 24 bytes (a million agents have ~14 million of them,
-/// so the distance is not stored: distance() recomputes exactly the value |offset| the grid saw).
+/// A neighbouring agent of the query agent, as the per-agent calls read it (AgentQuery::agents): 24
+/// bytes, the distance not stored (distance() recomputes exactly the value |offset| the grid saw).
+/// Stored lists keep only the index (NeighbourLists::indices); these entries live in per-thread
+/// scratch written from them (NeighbourLists::agents) or by the streamed gather.
 struct NeighbourAgent {
     /// pos[j] - pos[i], shortest on a torus (m). Stored without Vec2's 16-byte alignment (which
     /// would pad the entry to 32 bytes); it converts to Vec2 wherever one is expected.
@@ -29,7 +31,7 @@ struct NeighbourAgent {
     double distanceSquared() const { return offset.squaredNorm(); }
     double distance() const { return offset.norm(); }  ///< |offset| (m); costs a square root
 };
-static_assert(sizeof(NeighbourAgent) == 24, "NeighbourAgent should stay 24 bytes (memory at 1M agents)");
+static_assert(sizeof(NeighbourAgent) == 24, "NeighbourAgent should stay 24 bytes (the AVX-512 loaders read three 8-byte words)");
 
 /// The neighbourhoods of one step. Agent i's list holds every other agent within radius(i) (in
 /// the grid's visit order, so sums over it do not depend on the thread count) and every wall
@@ -70,8 +72,9 @@ public:
               const std::vector<int>& group, const std::vector<double>& rangeOfGroup);
     /// Whether the lists are bound for gather() (the last call was bind()) rather than stored.
     bool streaming() const { return streaming_; }
-    /// A thread's buffers for gather(): one agent's lists, reused from agent to agent (a few
-    /// kilobytes that stay in cache, where the stored lists of 10k agents at 5 m are ~19 MB).
+    /// A thread's buffers for gather() (and for agents() in Simulation::gatherQuery): one agent's
+    /// lists, reused from agent to agent (a few kilobytes that stay in cache, where the stored
+    /// lists of 10k agents at 5 m are ~3 MB of indices).
     struct Scratch {
         std::vector<NeighbourAgent> agents;
         std::vector<int> segments;
