@@ -146,8 +146,9 @@ constexpr Interleave kInterleave = makeInterleave();
 /// AVX-512: per row run, eight candidates at a time (the run's tail by masked loads): the lanes
 /// within r and not self are compressed to the front of the x, y and index registers, interleaved
 /// into eight 24-byte entries by two permutes per register, stored whole (three 64-byte stores)
-/// and `count` advances by their number. Index lists store the compressed indices alone. The stores may run up to kGatherSlack entries past the
-/// list's end; entries past `count` are overwritten by the next list or never read.
+/// and `count` advances by their number; index lists store the compressed indices alone. The
+/// stores may run up to kGatherSlack entries past the list's end; entries past `count` are
+/// overwritten by the next list or never read.
 template <class Entry>
 CH_NL_AVX512 CH_NL_NO_CONTRACT
 std::size_t gatherWide(const PointGrid& grid, const Run* runs, int nRuns, const Vec2& p, double r, int self,
@@ -194,7 +195,6 @@ std::size_t gatherWide(const PointGrid& grid, const Run* runs, int nRuns, const 
     }
     return count;
 }
-
 #endif
 
 /// Whether this CPU runs gather path `path`.
@@ -278,9 +278,8 @@ void NeighbourLists::build(const std::vector<Vec2>& positions, const PointGrid& 
     const std::size_t n = positions.size();
     streaming_ = false;
     const PointGrid& grid = prepareGrid(positions, stepGrid, world, group, rangeOfGroup);
-    gridUsed_ = &grid;
+    gridUsed_ = &grid;  // offset() reads these
     positions_ = &positions;
-    world_ = &world;
     periodic_ = world.periodic();
     const int threads = std::max(1, omp_get_max_threads());
     if (agentBuffers_.size() < static_cast<std::size_t>(threads)) {
