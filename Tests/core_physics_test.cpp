@@ -282,3 +282,30 @@ BOOST_AUTO_TEST_CASE(agents_leave_at_their_goal_or_out_of_the_world_in_agent_ord
     BOOST_TEST(evacuatedIds[0] == evacuatedIds[1]);
     BOOST_TEST(leftWorld[1] == leftWorld[0]);
 }
+
+BOOST_AUTO_TEST_CASE(umans_post_clamp_contact_pushes_overlapping_agents_apart) {
+    // UMANS' implicit contact (PolicySpec::contactForceScale > 0, a policy with no contact
+    // component) acts after the clamps: two overlapping agents standing at their goals are pushed
+    // apart along their centre line, equally and oppositely. With the scale 0 the buffer is not
+    // kept and nothing pushes them.
+    for (const double scale : {62.5, 0.0}) {
+        auto spec = test::scenario({test::agent(1, {0, 0}, {0, 0}), test::agent(2, {0.4, 0}, {0.4, 0})},
+                                   {test::policy(0, OptimisationMethod::Gradient, {test::component("GoalReachingForce")}, 0.5,
+                                                 {}, StepTiming::Fine, scale)},
+                                   0.1, -1);
+        Simulation sim(spec);
+        sim.stepCoarse();
+        BOOST_TEST_REQUIRE(sim.agents().size() == 2u);
+        const std::size_t a = sim.agents().id[0] == 1 ? 0 : 1;
+        const Vec2 va = sim.agents().vel[a], vb = sim.agents().vel[1 - a];
+        if (scale > 0) {
+            BOOST_TEST(va.x() < -0.1);
+            BOOST_TEST(vb.x() == -va.x());
+            BOOST_TEST(va.y() == 0.0);
+            BOOST_TEST(sim.agents().pos[a].x() < 0.0);
+        } else {
+            BOOST_TEST(va.norm() == 0.0);
+            BOOST_TEST(vb.norm() == 0.0);
+        }
+    }
+}

@@ -192,3 +192,28 @@ BOOST_AUTO_TEST_CASE(the_draw_follows_the_agent_id_not_its_place_in_the_store) {
         BOOST_TEST(p.x() != 0.01 * static_cast<double>(id - 10));  // it did move (by the jitter alone)
     }
 }
+
+BOOST_AUTO_TEST_CASE(the_jitter_reads_the_velocity_at_the_start_of_the_step) {
+    // The state is advanced in place (Simulation::integrate): the held-up test must read the
+    // velocity the step started from, not the one just written. An agent at rest with a huge
+    // maximum acceleration reaches its preferred speed in one fine step: it was held up at the
+    // step's start, so that step's position carries a jitter (off the x axis it walks along);
+    // the next step, walking freely, carries none.
+    auto a = test::agent(5, {0, 0}, {1000, 0}, 0.3, 1.3, 1.6);
+    a.maxAcceleration = 1000;
+    auto spec = test::scenario({a}, {test::policy(0, OptimisationMethod::Gradient, {test::component("GoalReachingForce")}, 0.1,
+                                                  {}, StepTiming::Fine)},
+                               0.1, -1);
+    spec.symmetryBreaking = 0.01;
+    Simulation sim(spec);
+    sim.stepCoarse();
+    BOOST_TEST_REQUIRE(sim.agents().vel[0].norm() > 0.5 * 1.3);
+    const double y = sim.agents().pos[0].y();
+    BOOST_TEST(y != 0.0);
+    BOOST_TEST(std::abs(y) < 0.01);
+    const Vec2 before = sim.agents().pos[0];
+    sim.stepCoarse();
+    const Vec2 expected = before + sim.agents().vel[0] * 0.1;
+    BOOST_TEST(sim.agents().pos[0].x() == expected.x());
+    BOOST_TEST(sim.agents().pos[0].y() == expected.y());
+}

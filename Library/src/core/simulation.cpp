@@ -68,6 +68,12 @@ Simulation::Simulation(ScenarioSpec specIn)
         for (const PolicyStep& s : p.steps())
             for (const auto& e : s.components()) needStoredLists_ = needStoredLists_ || e.component->readsStepLists();
     storeLists_ = needStoredLists_;
+    // Per-agent step buffers that only some policies need (none is kept at a million agents
+    // when nobody uses it: 16 bytes each per agent).
+    for (const Policy& p : policies_) {
+        anyUmansContact_ = anyUmansContact_ || p.contactForceScale() > 0;
+        for (const PolicyStep& s : p.steps()) anyCoarseStep_ = anyCoarseStep_ || s.timing() == StepTiming::Coarse;
+    }
 
     totalAgents_ = spec.agents.size();
     pending_.resize(spec.agents.size());
@@ -155,13 +161,16 @@ void Simulation::activatePending() {
 }
 
 void Simulation::followAgents(const std::vector<int>& previous) {
-    // The held coarse accelerations, then every component's per-agent state.
-    std::vector<Vec2> held(previous.size(), Vec2(0, 0));
-    for (std::size_t i = 0; i < previous.size(); ++i) {
-        const int p = previous[i];
-        if (p >= 0 && static_cast<std::size_t>(p) < heldAccel_.size()) held[i] = heldAccel_[static_cast<std::size_t>(p)];
+    // The held coarse accelerations (kept only when some policy has a coarse step), then every
+    // component's per-agent state.
+    if (anyCoarseStep_) {
+        std::vector<Vec2> held(previous.size(), Vec2(0, 0));
+        for (std::size_t i = 0; i < previous.size(); ++i) {
+            const int p = previous[i];
+            if (p >= 0 && static_cast<std::size_t>(p) < heldAccel_.size()) held[i] = heldAccel_[static_cast<std::size_t>(p)];
+        }
+        heldAccel_.swap(held);
     }
-    heldAccel_.swap(held);
     for (Policy& p : policies_)
         for (PolicyStep& s : p.steps())
             for (auto& e : s.components()) e.component->remapAgents(previous);
@@ -259,18 +268,13 @@ void Simulation::stepFine() {
     });
 
     fineAccel_.resize(n);
-    umansContact_.resize(n);
+    if (anyUmansContact_) umansContact_.resize(n);
     stopped_.resize(n);
-    nextPos_.resize(n);
-    nextVel_.resize(n);
-    nextView_.resize(n);
     nextContact_.resize(n);
     timed(Phase::Forces, [&] { evaluateAgents(coarseBoundary); });
+    // Every acceleration of the step is known: the state is advanced in place (each agent reads
+    // and writes only its own slots from here on).
     timed(Phase::Integration, [&] { integrate(); });
-
-    std::swap(agents_.pos, nextPos_);
-    std::swap(agents_.vel, nextVel_);
-    std::swap(agents_.viewDir, nextView_);
     std::swap(agents_.contactAccel, nextContact_);
     ++fineSteps_;
     health_.endStep(agents_, time(), dtFine_);
@@ -436,7 +440,7 @@ void Simulation::evaluateAgents(bool coarseBoundary) {
             Vec2 reported(0, 0);  // contact accelerations reported by components (contactField)
             bool stop = false;
             const bool atGoal = agents_.prefVel[i].squaredNorm() == 0;
-            if (coarseBoundary) heldAccel_[i] = Vec2(0, 0);
+            if (coarseBoundary && anyCoarseStep_) heldAccel_[i] = Vec2(0, 0);
             for (const PolicyStep& s : policy.steps()) {
                 if (atGoal && s.spec().stopAtGoal) {
                     stop = true;
@@ -459,7 +463,7 @@ void Simulation::evaluateAgents(bool coarseBoundary) {
             if (policy.contactForceScale() > 0) contact = umansContactAcceleration(q, policy.contactForceScale(), maxRadius);
             fineAccel_[i] = fine;
             stopped_[i] = stop ? 1 : 0;
-            umansContact_[i] = contact;
+            if (anyUmansContact_) umansContact_[i] = contact;
             nextContact_[i] = contact + reported;
         }
     }
@@ -473,22 +477,25 @@ void Simulation::integrate() {
         const std::size_t i = static_cast<std::size_t>(ii);
         if (anyFallen && health_.isFallen(agents_, i)) {
             // A body on the floor (CrowdHealth falls) lies still: an obstacle the others avoid.
-            nextVel_[i] = Vec2(0, 0);
-            nextPos_[i] = agents_.pos[i];
-            nextView_[i] = agents_.viewDir[i];
+            agents_.vel[i] = Vec2(0, 0);
             continue;
         }
+        // Zeros stand for the buffers no policy needs, so the sums are those of the full formula.
+        const Vec2 held = anyCoarseStep_ ? heldAccel_[i] : Vec2(0, 0);
+        const Vec2 umans = anyUmansContact_ ? umansContact_[i] : Vec2(0, 0);
         Vec2 v(0, 0);
         if (!stopped_[i]) {
-            const Vec2 a = clampLength(heldAccel_[i] + fineAccel_[i], agents_.maxAcceleration[i]);
+            const Vec2 a = clampLength(held + fineAccel_[i], agents_.maxAcceleration[i]);
             v = clampLength(agents_.vel[i] + a * dtFine_, agents_.maxSpeed[i]);
         }
-        v += umansContact_[i] * dtFine_;
-        nextVel_[i] = v;
-        nextPos_[i] = world_.wrap(agents_.pos[i] + v * dtFine_ + symmetryJitter(i));
+        v += umans * dtFine_;
+        // The jitter reads the velocity of the step's start: drawn before it is overwritten.
+        const Vec2 jitter = symmetryJitter(i);
+        agents_.vel[i] = v;
+        agents_.pos[i] = world_.wrap(agents_.pos[i] + v * dtFine_ + jitter);
         // UMANS' viewing direction: mostly the velocity, partly the preferred velocity.
         const Vec2 look = (2.0 * v + agents_.prefVel[i]) / 3.0;
-        nextView_[i] = look.squaredNorm() > 0.01 ? Vec2(look.normalized()) : agents_.viewDir[i];
+        if (look.squaredNorm() > 0.01) agents_.viewDir[i] = look.normalized();
     }
 }
 

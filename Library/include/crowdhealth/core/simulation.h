@@ -176,9 +176,11 @@ private:
     /// Symmetry breaking acts on agents slower than this fraction of their preferred speed.
     static constexpr double kHeldUpFraction = 0.5;
     /// Phase 3: every agent's policy steps on its neighbourhood (fills fineAccel_, stopped_,
-    /// umansContact_, nextContact_ and, at a coarse boundary, heldAccel_).
+    /// umansContact_ when a policy has UMANS' contact, nextContact_ and, at a coarse boundary,
+    /// heldAccel_ when a policy has a coarse step).
     void evaluateAgents(bool coarseBoundary);
-    /// Phase 4: forward Euler from the accelerations of phase 3 into the next-state buffers.
+    /// Phase 4: forward Euler from the accelerations of phase 3, in place (positions, velocities,
+    /// viewing directions: every acceleration is known, and each agent reads only its own state).
     void integrate();
     void activatePending();
     /// Agent i's state and its neighbour lists of this step into q: views of the stored lists, or
@@ -237,7 +239,9 @@ private:
     std::vector<unsigned char> stopped_;  ///< 1: at its goal with a stopAtGoal step (stands still)
     std::vector<unsigned char> remove_;   ///< removal marks (reused): 1 exit or goal, 2 out of the world
     std::vector<int> exitOf_;             ///< the exit each agent leaves by this step, or -1 (reused)
-    std::vector<Vec2> nextPos_, nextVel_, nextView_, nextContact_;
+    std::vector<Vec2> nextContact_;       ///< contactAccel of the step being computed (swapped in after it)
+    bool anyCoarseStep_ = false;          ///< some policy has a coarse step (heldAccel_ is kept)
+    bool anyUmansContact_ = false;        ///< some policy has UMANS' contact (umansContact_ is kept)
     std::array<double, kPhases> phaseSeconds_{};
 
     // CrowdHealth layer and schedule (<Schedule><Ramp>)
