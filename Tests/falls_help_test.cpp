@@ -208,6 +208,9 @@ BOOST_AUTO_TEST_CASE(a_fallen_body_is_an_obstacle_the_others_walk_round) {
             continue;
         }
         bodyMoved = std::max(bodyMoved, (a.pos[b0] - body0).norm());
+        // ... and has no velocity, which walkers' models and the outputs read.
+        BOOST_TEST_REQUIRE(a.vel[b0].norm() == 0.0);
+        BOOST_TEST_REQUIRE(a.vel[b1].norm() == 0.0);
         BOOST_TEST_REQUIRE(a.radius[b0] == 0.6);  // grown to the body on the floor within 1 s
         for (std::size_t i = 0; i < a.size(); ++i) {
             if (a.id[i] < 2) continue;
