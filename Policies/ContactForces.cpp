@@ -37,12 +37,9 @@ ContactForces::ContactForces(const ParamSet& params) {
 }
 
 void ContactForces::remapAgents(const std::vector<int>& previous) {
-    std::vector<Vec2> out(previous.size(), Vec2(0, 0));
-    for (std::size_t i = 0; i < previous.size(); ++i) {
-        const int p = previous[i];
-        if (p >= 0 && static_cast<std::size_t>(p) < accel_.size()) out[i] = accel_[static_cast<std::size_t>(p)];
-    }
-    accel_.swap(out);
+    // Empty until the first step (prepare() assigns every agent's entry): readers of
+    // contactField() check its size.
+    remapColumn(accel_, previous, Vec2(0, 0), true);
 }
 
 namespace {

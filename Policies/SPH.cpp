@@ -73,19 +73,12 @@ double SPH::clampRest(double v) const {
 }
 
 void SPH::remapAgents(const std::vector<int>& previous) {
-    auto remap = [&](auto& column, auto fresh) {
-        std::remove_reference_t<decltype(column)> out(previous.size(), fresh);
-        for (std::size_t i = 0; i < previous.size(); ++i) {
-            const int p = previous[i];
-            if (p >= 0 && static_cast<std::size_t>(p) < column.size()) out[i] = column[static_cast<std::size_t>(p)];
-        }
-        column.swap(out);
-    };
-    remap(density_, 0.0);
-    remap(restDensity_, 0.0);
-    remap(pressure_, 0.0);
-    remap(average_, 0.0);
-    remap(known_, static_cast<unsigned char>(0));
+    // Columns not yet sized stay empty until prepare() sizes them with the same fresh values.
+    remapColumn(density_, previous, 0.0, true);
+    remapColumn(restDensity_, previous, 0.0, true);
+    remapColumn(pressure_, previous, 0.0, true);
+    remapColumn(average_, previous, 0.0, true);
+    remapColumn(known_, previous, static_cast<unsigned char>(0), true);
 }
 
 void SPH::prepare(const StepContext& ctx) {

@@ -110,6 +110,11 @@ BOOST_AUTO_TEST_CASE(agent_grid_groups_consecutive_agents) {
     BOOST_TEST(s.groups.size() == 2u);
     const std::vector<int> expected = {0, 0, 0, 1, 1, 1, -1};
     for (std::size_t i = 0; i < expected.size(); ++i) BOOST_TEST(s.agents[i].groupIndex == expected[i], "agent " << i);
+    // Named after the grid (its number in the file) and the group; the members share the name.
+    const std::vector<std::string> names = {"AgentGrid0.0", "AgentGrid0.0", "AgentGrid0.0", "AgentGrid0.1",
+                                            "AgentGrid0.1", "AgentGrid0.1", ""};
+    for (std::size_t i = 0; i < names.size(); ++i) BOOST_TEST(s.agents[i].group == names[i], "agent " << i);
+    BOOST_TEST(s.groups == (std::vector<std::string>{"AgentGrid0.0", "AgentGrid0.1"}));
 }
 
 BOOST_AUTO_TEST_CASE(group_settings_out_of_range_are_errors_at_their_line) {

@@ -9,8 +9,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <set>
 #include <sstream>
+#include <utility>
 
 using namespace ch;
 
@@ -214,7 +216,7 @@ BOOST_AUTO_TEST_CASE(umans_1x_inline) {
     BOOST_TEST(a.goal->x() == 5.0);
     BOOST_TEST(a.policyId == 3);
     BOOST_REQUIRE(a.color.has_value());
-    BOOST_TEST((*a.color == std::array<int, 3>{160, 76, 157}));
+    BOOST_TEST((*a.color == std::array<std::uint8_t, 3>{160, 76, 157}));
     BOOST_TEST(a.loc.line == 23);
     BOOST_TEST(a.loc.file == data("umans1_inline.xml"));
 
@@ -589,4 +591,36 @@ BOOST_AUTO_TEST_CASE(attributes_of_another_world_type_are_warned_about) {
     const std::string f = "world_other_type_attributes.xml";
     BOOST_TEST(L.spec.has_value());  // a warning, not an error (UMANS ignores them)
     CHECK_DIAG(L, f, 4, "warning: World@xmin is ignored: it applies to Planar worlds, this one is Toric");
+}
+
+BOOST_AUTO_TEST_CASE(agent_names_read_as_strings_and_copies_share_them) {
+    // AgentSpec::journey and ::group are SharedNames (8 bytes in a spec instead of 32): they must
+    // read, compare and concatenate as the strings they hold, and outlive the spec they came from.
+    SharedName none;
+    BOOST_TEST(none.empty());
+    BOOST_TEST(none.str().empty());
+    BOOST_TEST(none == "");
+    BOOST_TEST(SharedName("").empty(), "an empty text is no name");
+    std::optional<SharedName> a(std::in_place, std::string("door/g2"));
+    SharedName b = *a;  // a copy shares the text
+    BOOST_TEST(static_cast<const void*>(&b.str()) == static_cast<const void*>(&a->str()), "copies share one block");
+    BOOST_TEST(b == "door/g2");
+    BOOST_TEST(b == std::string("door/g2"));
+    BOOST_TEST(!(b == "door/g"));
+    BOOST_TEST((SharedName("x") == SharedName("x")), "different blocks compare by content");
+    BOOST_TEST(!(SharedName("x") == SharedName("y")));
+    BOOST_TEST("group '" + b + "'" == "group 'door/g2'");
+    a.reset();  // the last other copy goes: the text stays with b
+    BOOST_TEST(b.str() == "door/g2");
+    SharedName c;
+    c = b;
+    b = SharedName();
+    BOOST_TEST(b.empty());
+    BOOST_TEST(c == "door/g2");
+    SharedName d(std::move(c));
+    BOOST_TEST(c.empty(), "a moved-from name is empty");
+    BOOST_TEST(d == "door/g2");
+    std::ostringstream out;
+    out << d;
+    BOOST_TEST(out.str() == "door/g2");
 }

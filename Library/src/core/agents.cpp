@@ -62,10 +62,13 @@ void AgentStore::removeMarked(const std::vector<unsigned char>& remove) {
 }
 
 void AgentStore::permute(const std::vector<int>& order) {
+    // In place from a copy, as remapColumn: every column keeps its buffer and its room for agents
+    // still to come, and the copy (a mapping of its own when large) is freed before the next
+    // column's is made.
     forEachColumn([&](auto& column) {
-        std::remove_reference_t<decltype(column)> out(order.size());
-        for (std::size_t k = 0; k < order.size(); ++k) out[k] = column[static_cast<std::size_t>(order[k])];
-        column.swap(out);
+        using T = typename std::remove_reference_t<decltype(column)>::value_type;
+        const std::vector<T, BigAllocator<T>> before(column.begin(), column.end());
+        for (std::size_t k = 0; k < order.size(); ++k) column[k] = before[static_cast<std::size_t>(order[k])];
     });
 }
 

@@ -164,12 +164,7 @@ void Simulation::followAgents(const std::vector<int>& previous) {
     // The held coarse accelerations (kept only when some policy has a coarse step), then every
     // component's per-agent state.
     if (anyCoarseStep_) {
-        std::vector<Vec2> held(previous.size(), Vec2(0, 0));
-        for (std::size_t i = 0; i < previous.size(); ++i) {
-            const int p = previous[i];
-            if (p >= 0 && static_cast<std::size_t>(p) < heldAccel_.size()) held[i] = heldAccel_[static_cast<std::size_t>(p)];
-        }
-        heldAccel_.swap(held);
+        remapColumn(heldAccel_, previous, Vec2(0, 0));
     }
     for (Policy& p : policies_)
         for (PolicyStep& s : p.steps())

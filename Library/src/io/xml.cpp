@@ -248,6 +248,14 @@ std::optional<int> readPolicyRef(LoadContext& ctx, const std::string& file, cons
     return static_cast<int>(*id);
 }
 
+void reserveAgents(LoadContext& ctx, std::size_t more) {
+    const std::size_t need = ctx.spec.agents.size() + more;
+    if (need <= ctx.spec.agents.capacity()) return;
+    const std::size_t room = std::max(need, 2 * ctx.spec.agents.capacity());
+    ctx.spec.agents.reserve(room);
+    ctx.agentOrigins.reserve(room);
+}
+
 void addAgent(LoadContext& ctx, AgentSpec agent, bool explicitId, const SourceLoc& idLoc) {
     ctx.spec.agents.push_back(std::move(agent));
     ctx.agentOrigins.push_back({explicitId, idLoc});

@@ -5,6 +5,7 @@
 #include "xml_internal.h"
 
 #include <cmath>
+#include <limits>
 
 namespace ch::xmlio {
 
@@ -229,7 +230,8 @@ void readAgent(LoadContext& ctx, const std::string& file, const XMLElement* el) 
             reportUnexpectedElement(ctx, file, c, color->Name(), {});
         const auto red = cr.required("r"), green = cr.required("g"), blue = cr.required("b");
         if (red && green && blue)
-            a.color = std::array<int, 3>{static_cast<int>(*red), static_cast<int>(*green), static_cast<int>(*blue)};
+            a.color = std::array<std::uint8_t, 3>{static_cast<std::uint8_t>(*red), static_cast<std::uint8_t>(*green),
+                                                  static_cast<std::uint8_t>(*blue)};
     }
     // Broken agents are still added (the load fails anyway): keeps ids and counts meaningful and
     // avoids a follow-up "no agents" warning.
@@ -272,6 +274,14 @@ void readAgentGrid(LoadContext& ctx, const std::string& file, const XMLElement* 
         return;
     }
     const int nc = static_cast<int>(*columns), nr = static_cast<int>(*rows);
+    // Room for the whole grid at once: a vector grown one agent at a time would hold up to twice
+    // the specs' size, with both copies alive while it moves (a million agents: 168 MB of specs).
+    // Grids that follow one another still grow geometrically.
+    const std::size_t count = static_cast<std::size_t>(nc) * static_cast<std::size_t>(nr);
+    reserveAgents(ctx, count);
+    // The members of a group share one name (SharedName), as every agent shares the journey's.
+    SharedName groupName;
+    std::uint64_t groupNumber = std::numeric_limits<std::uint64_t>::max();
     for (int row = 0; row < nr; ++row) {
         for (int col = 0; col < nc; ++col) {
             // One stream per (generator, agent): radii depend only on the seed and the file.
@@ -285,8 +295,14 @@ void readAgentGrid(LoadContext& ctx, const std::string& file, const XMLElement* 
             if (groupSize >= 2) {
                 const std::uint64_t total = static_cast<std::uint64_t>(nc) * static_cast<std::uint64_t>(nr);
                 const std::uint64_t first = k - k % static_cast<std::uint64_t>(groupSize);
-                if (total - first >= 2)
-                    a.group = "AgentGrid" + std::to_string(generator) + "." + std::to_string(k / static_cast<std::uint64_t>(groupSize));
+                if (total - first >= 2) {
+                    const std::uint64_t number = k / static_cast<std::uint64_t>(groupSize);
+                    if (number != groupNumber) {
+                        groupNumber = number;
+                        groupName = "AgentGrid" + std::to_string(generator) + "." + std::to_string(number);
+                    }
+                    a.group = groupName;
+                }
             }
             addAgent(ctx, std::move(a), false, r.loc());
         }

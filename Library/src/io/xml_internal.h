@@ -122,6 +122,9 @@ std::optional<Vec2> readPoint(LoadContext& ctx, const std::string& file, const X
 std::optional<int> readPolicyRef(LoadContext& ctx, const std::string& file, const XMLElement* el);
 /// Adds an agent produced by an element or generator (id still to be assigned).
 void addAgent(LoadContext& ctx, AgentSpec agent, bool explicitId, const SourceLoc& idLoc);
+/// Makes room for `more` agents to be added (a generator that knows its count): exact for the
+/// first large generator, geometric growth when several follow one another.
+void reserveAgents(LoadContext& ctx, std::size_t more);
 
 // Element readers, one per topic file.
 void readPolicy(LoadContext& ctx, const std::string& file, const XMLElement* el);

@@ -85,6 +85,7 @@ void expandSources(ScenarioSpec& spec) {
     for (std::size_t k = 0; k < spec.venue.sources.size(); ++k) {
         const SourceSpec& s = spec.venue.sources[k];
         const std::vector<double> times = sourceArrivals(s, 10'000'000);
+        const SharedName journey(s.journey);  // one name for all the source's agents
         Vec2 centre(0, 0);
         for (const Vec2& p : s.area) centre += p;
         if (!s.area.empty()) centre /= static_cast<double>(s.area.size());
@@ -102,7 +103,7 @@ void expandSources(ScenarioSpec& spec) {
                 }
             }
             size = std::min(size, times.size() - first);  // `count` or `end` cuts the last group
-            const std::string group = size >= 2 ? s.name + "/g" + std::to_string(++groups) : std::string();
+            const SharedName group = size >= 2 ? SharedName(s.name + "/g" + std::to_string(++groups)) : SharedName();
             for (std::size_t n = first; n < first + size; ++n) {
                 Rng rng(spec.seed, kStreamSource, k, n);
                 AgentSpec a;
@@ -117,7 +118,7 @@ void expandSources(ScenarioSpec& spec) {
                 a.removeAtGoal = s.removeAtGoal;
                 a.startTime = times[first];
                 a.policyId = s.policyId;
-                a.journey = s.journey;
+                a.journey = journey;
                 a.source = static_cast<int>(k);
                 a.group = group;
                 a.loc = s.loc;

@@ -5,6 +5,7 @@
 
 #include "crowdhealth/io/diagnostics.h"
 #include "crowdhealth/core/params.h"
+#include "crowdhealth/core/shared_name.h"
 #include "crowdhealth/core/types.h"
 #include "crowdhealth/measure/measurement.h"
 #include "crowdhealth/navigation/venue.h"
@@ -153,9 +154,11 @@ struct PanicEventSpec {
 };
 
 /// One agent of the scenario. The members are ordered by alignment, not by meaning (the 16-byte
-/// aligned vectors, then the 8-byte values, the strings, the 4-byte values, the byte), so that no
-/// padding is left between them: 240 bytes (288 before the reordering and the shared file name of
-/// SourceLoc), 46 MiB less for a million agents, whose specs the simulation keeps.
+/// aligned vectors, then the 8-byte values, the 4-byte values, the bytes), so that no padding is
+/// left between them; its names are SharedNames (8 bytes, shared by the agents that repeat them)
+/// and its colour is three bytes. 176 bytes (288 before the reordering and the shared file name of
+/// SourceLoc, 240 with two std::string names and int colours): a million agents' specs coexist
+/// with the agent store while the simulation is set up (issue 20).
 struct AgentSpec {
     Vec2 position{0, 0};        ///< m
     std::optional<Vec2> goal;   ///< m; absent: the agent stays where it is (UMANS warns)
@@ -170,9 +173,9 @@ struct AgentSpec {
     /// s the agent stands after appearing before it starts walking (RiMEA's premovement time).
     double premovement = 0;
     /// A <Journey> of the venue (crowdhealth/navigation/venue.h); empty: walk to `goal` (UMANS).
-    std::string journey;
+    SharedName journey;
     /// The agent's social group (Agent@group, or AgentGrid@group_size); empty: walks alone.
-    std::string group;
+    SharedName group;
     SourceLoc loc;
     int policyId = 0;
     /// Index into VenueSpec::sources for an agent a source creates: its position is chosen when it
@@ -180,10 +183,10 @@ struct AgentSpec {
     int source = -1;
     /// Index of `group` in ScenarioSpec::groups (set by the loader); -1: no group.
     int groupIndex = -1;
-    std::optional<std::array<int, 3>> color;  ///< RGB 0..255 for viewers
+    std::optional<std::array<std::uint8_t, 3>> color;  ///< RGB 0..255 for viewers
     bool removeAtGoal = false;
 };
-static_assert(sizeof(AgentSpec) <= 240, "AgentSpec grew past 240 bytes (memory at a million agents): "
+static_assert(sizeof(AgentSpec) <= 176, "AgentSpec grew past 176 bytes (memory at a million agents): "
                                         "keep its members ordered by alignment");
 
 struct OutputSpec {
