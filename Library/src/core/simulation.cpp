@@ -567,8 +567,15 @@ void Simulation::removeFinished() {
 
 std::vector<double> measureDensity(const std::vector<Vec2>& positions, const std::vector<double>& masses,
                                    const World& world, double h) {
+    std::vector<double> density;
+    measureDensity(positions, masses, world, h, density);
+    return density;
+}
+
+void measureDensity(const std::vector<Vec2>& positions, const std::vector<double>& masses, const World& world,
+                    double h, std::vector<double>& density) {
     const std::size_t n = positions.size();
-    std::vector<double> density(n, 0.0);
+    density.assign(n, 0.0);
     PointGrid grid;
     grid.build(positions, h, world.periodic(), world.spec().width, world.spec().height);
     const PointGrid& walls = world.particleGrid();
@@ -584,11 +591,10 @@ std::vector<double> measureDensity(const std::vector<Vec2>& positions, const std
             walls.forEachWithin(positions[i], h, [&](int, const Vec2&, double d2) { rho += kernels::poly6(d2, h); });
         density[i] = rho;
     }
-    return density;
 }
 
 void Simulation::measureDensity(double h) {
-    agents_.density = ch::measureDensity(agents_.pos, agents_.mass, world_, h);
+    ch::measureDensity(agents_.pos, agents_.mass, world_, h, agents_.density);
 }
 
 void Simulation::setPrefSpeed(double speed) {

@@ -399,7 +399,10 @@ bool SafetyRecorder::cover(int x0, int y0, int x1, int y1) {
     if (sparse_) return false;
     if (gnx_ > 0 && x0 >= gx0_ && y0 >= gy0_ && x1 < gx0_ + gnx_ && y1 < gy0_ + gny_) return true;
     // The union with the present grid, then a quarter of its size more on each side that grows
-    // (a crowd walking away moves the rectangle a little at every step: one copy per few metres).
+    // (a crowd walking away moves the rectangle a little at every step: one copy per few metres),
+    // at most kMaxGrowCells: a large grid grows by a strip (a 471 m room emptying through a door
+    // took 36 → 45 MiB, old and new alive together during the copy, issue 20), and a copy every
+    // 32 cells is rare for a crowd walking at ~1.4 m/s.
     int nx0 = x0, ny0 = y0, nx1 = x1, ny1 = y1;
     if (gnx_ > 0) {
         nx0 = std::min(nx0, gx0_);
@@ -423,7 +426,7 @@ bool SafetyRecorder::cover(int x0, int y0, int x1, int y1) {
         return false;
     }
     if (gnx_ > 0) {
-        const int sx = std::max(4, (nx1 - nx0 + 1) / 4), sy = std::max(4, (ny1 - ny0 + 1) / 4);
+        const int sx = std::clamp((nx1 - nx0 + 1) / 4, 4, kMaxGrowCells), sy = std::clamp((ny1 - ny0 + 1) / 4, 4, kMaxGrowCells);
         const int px0 = nx0 < gx0_ ? nx0 - sx : nx0, py0 = ny0 < gy0_ ? ny0 - sy : ny0;
         const int px1 = nx1 > gx0_ + gnx_ - 1 ? nx1 + sx : nx1, py1 = ny1 > gy0_ + gny_ - 1 ? ny1 + sy : ny1;
         if (area(px0, py0, px1, py1) <= kMaxGridCells) nx0 = px0, ny0 = py0, nx1 = px1, ny1 = py1;

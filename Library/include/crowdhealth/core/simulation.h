@@ -41,6 +41,10 @@ namespace ch {
 /// density of recorded trajectories.
 std::vector<double> measureDensity(const std::vector<Vec2>& positions, const std::vector<double>& masses,
                                    const World& world, double h = 1.0);
+/// The same, written into `density` (re-sized to one value per position, its buffer kept):
+/// Simulation::measureDensity fills the store's column so, with no second vector per record.
+void measureDensity(const std::vector<Vec2>& positions, const std::vector<double>& masses, const World& world,
+                    double h, std::vector<double>& density);
 
 struct Evacuation {
     AgentId id;

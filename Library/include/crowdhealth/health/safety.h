@@ -151,6 +151,7 @@ private:
     // The grid comes from bigAllocate (huge pages from 2 MiB): a 10k-agent crowd's grid grows
     // twice in its first seconds, to 3.7 MB, ~1900 page faults of 4 KiB each (issue 20).
     static constexpr double kMaxGridCells = 1 << 22;
+    static constexpr int kMaxGrowCells = 32;  ///< most cells a side of the flat grid grows by beyond the need
     using Grid = std::vector<Cell, BigAllocator<Cell>>;
     Grid grid_;
     std::vector<unsigned char> present_;
