@@ -95,10 +95,11 @@ struct AgentStore {
 ///
 /// The column keeps its buffer (re-sized in place when it has room) and is written from a copy
 /// that is freed before returning, a mapping of its own when large (bigAllocate): re-orderings
-/// of a large crowd then leave no old buffers in the heap, which grew the resident memory of a
-/// million agents at each re-ordering when every column was replaced by a new one (issue 20). With `keepEmpty`, a column that is
-/// still empty stays empty: its owner sizes it when it first uses it, so a component that has not
-/// run yet allocates nothing while the crowd is set up.
+/// of a large crowd then leave no old buffers in the heap (issue 20: replacing every column by a
+/// new one grew a million agents' resident memory at each re-ordering).
+///
+/// With `keepEmpty`, a column that is still empty stays empty: its owner sizes it when it first
+/// uses it, so a component that has not run yet allocates nothing while the crowd is set up.
 template <class Column, class T>
 void remapColumn(Column& column, const std::vector<int>& previous, const T& fresh, bool keepEmpty = false) {
     if (keepEmpty && column.empty()) return;
