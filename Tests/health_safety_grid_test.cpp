@@ -1,7 +1,7 @@
 // CrowdHealth tests — the crowd field's scatter of separable Gaussian weights and the safety
-// recorder's flat grid of cells (issue 20): the field against the Gaussian sum written out, and the
-// heat map of crowds that move the grid (it grows, or moves to the map for a crowd scattered far
-// apart) against the peaks of the fields the test computes itself.
+// recorder's tiles of cells (issue 20): the field against the Gaussian sum written out, and the
+// heat map of crowds that move over the tiles (their index grows, or the cells move to the map for
+// a crowd scattered very far apart) against the peaks of the fields the test computes itself.
 #define BOOST_TEST_MODULE health_safety_grid
 #include <boost/test/unit_test.hpp>
 
@@ -310,9 +310,9 @@ BOOST_AUTO_TEST_CASE(heat_map_of_a_crowd_walking_away_keeps_every_cell_it_left) 
     BOOST_TEST(peaksOf(r.heatmapCsv()) == expectedPeaks(peak, r.thresholds().cellSize, true));
 }
 
-BOOST_AUTO_TEST_CASE(heat_map_moves_to_the_map_when_the_crowd_scatters_far_apart) {
-    // A group on the flat grid, then half of it jumps 3 km away (a rectangle of ~9M cells, above
-    // the 4M of a flat grid): the cells move to the map and the heat map lists only the cells
+BOOST_AUTO_TEST_CASE(heat_map_of_a_crowd_scattered_far_apart_lists_only_its_cells) {
+    // A group, then half of it jumps 3 km away (a rectangle of ~9M cells, above the 4M the heat
+    // map writes in full): the tiles keep both places, and the heat map lists only the cells
     // evaluated, the first ones with their peaks.
     SafetyRecorder r;
     AgentStore a = randomCrowd(100, 5, 5, 6, 6, 11);
@@ -323,4 +323,43 @@ BOOST_AUTO_TEST_CASE(heat_map_moves_to_the_map_when_the_crowd_scatters_far_apart
     for (std::size_t i = 0; i < a.size(); i += 2) a.pos[i] += Vec2(3000, 3000);
     follow(r, a, t, 5, [](int) { return Vec2(0.0, 0.3); }, peak);
     BOOST_TEST(peaksOf(r.heatmapCsv()) == expectedPeaks(peak, r.thresholds().cellSize, false));
+}
+
+BOOST_AUTO_TEST_CASE(heat_map_moves_to_the_map_when_the_crowd_scatters_very_far_apart) {
+    // Half of a group jumps 2000 km away, past what an index of tiles covers (~16 km a side): the
+    // cells move to the map, those evaluated before the jump with their peaks, and the records
+    // go on there (south and west of the origin too).
+    SafetyRecorder r;
+    AgentStore a = randomCrowd(100, -3, -4, 6, 6, 5);
+    std::map<std::pair<int, int>, double> peak;
+    double t = 0;
+    follow(r, a, t, 5, [](int) { return Vec2(-0.3, 0.2); }, peak);
+    BOOST_TEST(peaksOf(r.heatmapCsv()) == expectedPeaks(peak, r.thresholds().cellSize, true));
+    for (std::size_t i = 0; i < a.size(); i += 2) a.pos[i] += Vec2(2.0e6, -1.5e6);
+    follow(r, a, t, 5, [](int) { return Vec2(0.0, -0.3); }, peak);
+    BOOST_TEST(peaksOf(r.heatmapCsv()) == expectedPeaks(peak, r.thresholds().cellSize, false));
+}
+
+BOOST_AUTO_TEST_CASE(a_copied_recorder_keeps_its_cells_and_goes_on_alone) {
+    // A copy has the cells of the original (not shared: recording into one leaves the other as it
+    // was), and both go on as the original would.
+    SafetyRecorder r;
+    AgentStore a = randomCrowd(300, 0, 0, 40, 30, 8);
+    std::map<std::pair<int, int>, double> peak;
+    double t = 0;
+    follow(r, a, t, 10, [](int) { return Vec2(1.0, 0.5); }, peak);
+    const std::string before = r.heatmapCsv();
+    SafetyRecorder copy = r;
+    BOOST_TEST(copy.heatmapCsv() == before);
+    AgentStore b = a;
+    double tb = t;
+    std::map<std::pair<int, int>, double> peakCopy = peak;
+    follow(r, a, t, 10, [](int) { return Vec2(-2.0, 0.0); }, peak);
+    BOOST_TEST(copy.heatmapCsv() == before);
+    follow(copy, b, tb, 10, [](int) { return Vec2(-2.0, 0.0); }, peakCopy);
+    BOOST_TEST(copy.heatmapCsv() == r.heatmapCsv());
+    BOOST_TEST(peaksOf(r.heatmapCsv()) == expectedPeaks(peak, r.thresholds().cellSize, true));
+    SafetyRecorder assigned;
+    assigned = copy;
+    BOOST_TEST(assigned.heatmapCsv() == r.heatmapCsv());
 }

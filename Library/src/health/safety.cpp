@@ -11,6 +11,8 @@
 #include <cctype>
 #include <cmath>
 #include <cstring>
+#include <new>
+#include <type_traits>
 
 #include <omp.h>
 
@@ -395,67 +397,86 @@ void SafetyRecorder::record(const Simulation& sim) { recordAt(sim.agents(), sim.
 
 void SafetyRecorder::recordCrowd(const AgentStore& agents, double t) { recordAt(agents, t, nullptr); }
 
+int SafetyRecorder::TileStore::make() {
+    static_assert(std::is_trivially_destructible_v<Tile>, "tiles are freed with their blocks, not destroyed");
+    static_assert(kPerBlock >= 1, "a tile must fit in a block");
+    if (count_ == blocks_.size() * kPerBlock) {
+        blocks_.reserve(blocks_.size() + 1);
+        blocks_.push_back(bigAllocate(kHugePage));
+    }
+    ::new (static_cast<void*>(&(*this)[static_cast<int>(count_)])) Tile();
+    return static_cast<int>(count_++);
+}
+
+SafetyRecorder::TileStore::TileStore(const TileStore& o) {
+    try {
+        for (std::size_t k = 0; k < o.count_; ++k) (*this)[make()] = o[static_cast<int>(k)];
+    } catch (...) {
+        clear();
+        throw;
+    }
+}
+
+void SafetyRecorder::TileStore::clear() noexcept {
+    for (void* b : blocks_) bigFree(b, kHugePage);
+    blocks_.clear();
+    count_ = 0;
+}
+
 bool SafetyRecorder::cover(int x0, int y0, int x1, int y1) {
     if (sparse_) return false;
-    if (gnx_ > 0 && x0 >= gx0_ && y0 >= gy0_ && x1 < gx0_ + gnx_ && y1 < gy0_ + gny_) return true;
-    // The union with the present grid, then a quarter of its size more on each side that grows
-    // (a crowd walking away moves the rectangle a little at every step: one copy per few metres),
-    // at most kMaxGrowCells: a large grid grows by a strip (a 471 m room emptying through a door
-    // took 36 → 45 MiB, old and new alive together during the copy, issue 20), and a copy every
-    // 32 cells is rare for a crowd walking at ~1.4 m/s.
-    int nx0 = x0, ny0 = y0, nx1 = x1, ny1 = y1;
-    if (gnx_ > 0) {
-        nx0 = std::min(nx0, gx0_);
-        ny0 = std::min(ny0, gy0_);
-        nx1 = std::max(nx1, gx0_ + gnx_ - 1);
-        ny1 = std::max(ny1, gy0_ + gny_ - 1);
+    const int nx0 = x0 >> kTileBits, ny0 = y0 >> kTileBits, nx1 = x1 >> kTileBits, ny1 = y1 >> kTileBits;
+    if (tnx_ > 0 && nx0 >= tx0_ && ny0 >= ty0_ && nx1 < tx0_ + tnx_ && ny1 < ty0_ + tny_) return true;
+    // The union with the present index and kIndexSlack tiles more on each side that grows (a
+    // crowd walking away moves the rectangle a little at every step); only pointers move.
+    int ux0 = nx0, uy0 = ny0, ux1 = nx1, uy1 = ny1;
+    if (tnx_ > 0) {
+        ux0 = std::min(ux0, tx0_), uy0 = std::min(uy0, ty0_);
+        ux1 = std::max(ux1, tx0_ + tnx_ - 1), uy1 = std::max(uy1, ty0_ + tny_ - 1);
+        if (ux0 < tx0_) ux0 -= kIndexSlack;
+        if (uy0 < ty0_) uy0 -= kIndexSlack;
+        if (ux1 > tx0_ + tnx_ - 1) ux1 += kIndexSlack;
+        if (uy1 > ty0_ + tny_ - 1) uy1 += kIndexSlack;
     }
-    auto area = [](double ax0, double ay0, double ax1, double ay1) { return (ax1 - ax0 + 1) * (ay1 - ay0 + 1); };
-    if (area(nx0, ny0, nx1, ny1) > kMaxGridCells) {
-        // Too large for a flat grid: the evaluated cells move to the map, for good.
-        for (int y = by0_; y <= by1_; ++y)
-            for (int x = bx0_; x <= bx1_; ++x) {
-                const std::size_t k = static_cast<std::size_t>(y - gy0_) * static_cast<std::size_t>(gnx_) +
-                                      static_cast<std::size_t>(x - gx0_);
-                if (present_[k]) sparseCells_.emplace(std::make_pair(y, x), grid_[k]);
-            }
-        grid_ = {};
-        present_ = {};
-        gnx_ = gny_ = 0;
-        sparse_ = true;
+    const double area = (static_cast<double>(ux1) - ux0 + 1) * (static_cast<double>(uy1) - uy0 + 1);
+    if (area > kMaxIndexTiles) {
+        goSparse();
         return false;
     }
-    if (gnx_ > 0) {
-        const int sx = std::clamp((nx1 - nx0 + 1) / 4, 4, kMaxGrowCells), sy = std::clamp((ny1 - ny0 + 1) / 4, 4, kMaxGrowCells);
-        const int px0 = nx0 < gx0_ ? nx0 - sx : nx0, py0 = ny0 < gy0_ ? ny0 - sy : ny0;
-        const int px1 = nx1 > gx0_ + gnx_ - 1 ? nx1 + sx : nx1, py1 = ny1 > gy0_ + gny_ - 1 ? ny1 + sy : ny1;
-        if (area(px0, py0, px1, py1) <= kMaxGridCells) nx0 = px0, ny0 = py0, nx1 = px1, ny1 = py1;
-    }
-    const int wx = nx1 - nx0 + 1, wy = ny1 - ny0 + 1;
-    Grid grid(static_cast<std::size_t>(wx) * static_cast<std::size_t>(wy));
-    std::vector<unsigned char> present(grid.size(), 0);
-    for (int y = by0_; y <= by1_; ++y)
-        for (int x = bx0_; x <= bx1_; ++x) {
-            const std::size_t from = static_cast<std::size_t>(y - gy0_) * static_cast<std::size_t>(gnx_) +
-                                     static_cast<std::size_t>(x - gx0_);
-            const std::size_t to = static_cast<std::size_t>(y - ny0) * static_cast<std::size_t>(wx) +
-                                   static_cast<std::size_t>(x - nx0);
-            grid[to] = grid_[from];
-            present[to] = present_[from];
-        }
-    grid_ = std::move(grid);
-    present_ = std::move(present);
-    gx0_ = nx0, gy0_ = ny0, gnx_ = wx, gny_ = wy;
+    const int wx = ux1 - ux0 + 1, wy = uy1 - uy0 + 1;
+    std::vector<int> index(static_cast<std::size_t>(wx) * static_cast<std::size_t>(wy), -1);
+    for (int y = 0; y < tny_; ++y)
+        std::copy_n(tiles_.begin() + static_cast<std::ptrdiff_t>(y) * tnx_, tnx_,
+                    index.begin() + static_cast<std::ptrdiff_t>(y + ty0_ - uy0) * wx + (tx0_ - ux0));
+    tiles_ = std::move(index);
+    tx0_ = ux0, ty0_ = uy0, tnx_ = wx, tny_ = wy;
     return true;
 }
 
+bool SafetyRecorder::makeTile(int& slot) {
+    if (slot >= 0) return true;
+    if (static_cast<double>(store_.size() + 1) * kTileCells > kMaxGridCells) {
+        goSparse();
+        return false;
+    }
+    slot = store_.make();
+    return true;
+}
+
+void SafetyRecorder::goSparse() {
+    forEachCell([&](int x, int y, const Cell& cell) { sparseCells_.emplace(std::make_pair(y, x), cell); });
+    tiles_ = {};
+    store_.clear();
+    tnx_ = tny_ = 0;
+    sparse_ = true;
+}
+
 SafetyRecorder::Cell& SafetyRecorder::cellAt(int x, int y) {
-    const bool inside = !sparse_ && x >= gx0_ && y >= gy0_ && x < gx0_ + gnx_ && y < gy0_ + gny_;
-    if (!inside && !cover(x, y, x, y)) return sparseCells_[{y, x}];
-    const std::size_t k =
-        static_cast<std::size_t>(y - gy0_) * static_cast<std::size_t>(gnx_) + static_cast<std::size_t>(x - gx0_);
-    if (!present_[k]) {
-        present_[k] = 1;
+    if (!cover(x, y, x, y) || !makeTile(tileSlot(x, y))) return sparseCells_[{y, x}];
+    Tile& tile = store_[tileSlot(x, y)];
+    const int k = inTile(x, y);
+    if (!tile.present[k]) {
+        tile.present[k] = 1;
         if (bx1_ < bx0_) {
             bx0_ = bx1_ = x;
             by0_ = by1_ = y;
@@ -464,7 +485,7 @@ SafetyRecorder::Cell& SafetyRecorder::cellAt(int x, int y) {
             by0_ = std::min(by0_, y), by1_ = std::max(by1_, y);
         }
     }
-    return grid_[k];
+    return tile.cells[k];
 }
 
 template <class F>
@@ -475,9 +496,8 @@ void SafetyRecorder::forEachCell(F&& f) const {
     }
     for (int y = by0_; y <= by1_; ++y)
         for (int x = bx0_; x <= bx1_; ++x) {
-            const std::size_t k = static_cast<std::size_t>(y - gy0_) * static_cast<std::size_t>(gnx_) +
-                                  static_cast<std::size_t>(x - gx0_);
-            if (present_[k]) f(x, y, grid_[k]);
+            const Tile* tile = tileOf(x, y);
+            if (tile != nullptr && tile->present[inTile(x, y)]) f(x, y, tile->cells[inTile(x, y)]);
         }
 }
 
@@ -499,11 +519,9 @@ void SafetyRecorder::recordAt(const AgentStore& a, double t, const HealthLayer* 
     int x0 = 0, x1 = -1;
     if (f.size() > 0) x0 = x1 = f.ix[0];
     for (const int x : f.ix) x0 = std::min(x0, x), x1 = std::max(x1, x);
-    const bool flat = f.size() > 0 && cover(x0, f.iy.front(), x1, f.iy.back());
-    auto flatIndex = [&](std::size_t k) {
-        return static_cast<std::size_t>(f.iy[k] - gy0_) * static_cast<std::size_t>(gnx_) +
-               static_cast<std::size_t>(f.ix[k] - gx0_);
-    };
+    bool flat = f.size() > 0 && cover(x0, f.iy.front(), x1, f.iy.back());
+    // The tiles of every entry, made here (serially) so that the loop below only looks them up.
+    for (std::size_t k = 0; k < f.size() && flat; ++k) flat = makeTile(tileSlot(f.ix[k], f.iy[k]));
     if (flat) {
         if (bx1_ < bx0_) bx0_ = x0, bx1_ = x1, by0_ = f.iy.front(), by1_ = f.iy.back();
         bx0_ = std::min(bx0_, x0), bx1_ = std::max(bx1_, x1);
@@ -607,11 +625,13 @@ void SafetyRecorder::recordAt(const AgentStore& a, double t, const HealthLayer* 
 #pragma omp for schedule(static)
             for (long kk = 0; kk < count; ++kk) {
                 const std::size_t k = static_cast<std::size_t>(kk);
-                const std::size_t g = flatIndex(k);
-                present_[g] = 1;
+                Tile& tile = store_[tileSlot(f.ix[k], f.iy[k])];
+                const int c = inTile(f.ix[k], f.iy[k]);
+                tile.present[c] = 1;
                 // The cells of a row follow each other; fetch those a few entries on.
-                if (kk + 4 < count) __builtin_prefetch(&grid_[flatIndex(k + 4)]);
-                evaluate(grid_[g], k, tally);
+                if (kk + 4 < count)
+                    __builtin_prefetch(&store_[tileSlot(f.ix[k + 4], f.iy[k + 4])].cells[inTile(f.ix[k + 4], f.iy[k + 4])]);
+                evaluate(tile.cells[c], k, tally);
             }
 #pragma omp critical(ch_safety_record_merge)
             merge(tally);
@@ -670,9 +690,9 @@ std::string SafetyRecorder::heatmapCsv() const {
     }
     for (int iy = iy0; iy <= iy1; ++iy)
         for (int ix = ix0; ix <= ix1; ++ix) {
-            if (!sparse_) {  // the flat grid covers the rectangle; cells never evaluated are default
-                row(ix, iy, grid_[static_cast<std::size_t>(iy - gy0_) * static_cast<std::size_t>(gnx_) +
-                                  static_cast<std::size_t>(ix - gx0_)]);
+            if (!sparse_) {  // the index covers the rectangle; cells never evaluated are default
+                const Tile* tile = tileOf(ix, iy);
+                row(ix, iy, tile != nullptr ? tile->cells[inTile(ix, iy)] : empty);
                 continue;
             }
             const auto it = sparseCells_.find({iy, ix});

@@ -142,20 +142,65 @@ private:
         std::size_t maxPeople = 0;
     };
     SafetyThresholds t_;
-    // The cells ever evaluated. While the rectangle around them is at most kMaxGridCells, a flat
-    // grid over [gx0_, gx0_ + gnx_) × [gy0_, gy0_ + gny_), row-major (y outer), that grows with some
-    // slack when the crowd moves out of it; present_ marks the cells evaluated (the others keep a
-    // default Cell), bx0_…by1_ bound them. Beyond that (a crowd scattered far apart) the cells move
-    // to sparse_, keyed (iy, ix), for the rest of the run. (A std::map for every run looked each
-    // cell up at every coarse step: ~12 % of a 10k-agent social-forces run, issue 20.)
-    // The grid comes from bigAllocate (huge pages from 2 MiB): a 10k-agent crowd's grid grows
-    // twice in its first seconds, to 3.7 MB, ~1900 page faults of 4 KiB each (issue 20).
-    static constexpr double kMaxGridCells = 1 << 22;
-    static constexpr int kMaxGrowCells = 32;  ///< most cells a side of the flat grid grows by beyond the need
-    using Grid = std::vector<Cell, BigAllocator<Cell>>;
-    Grid grid_;
-    std::vector<unsigned char> present_;
-    int gx0_ = 0, gy0_ = 0, gnx_ = 0, gny_ = 0;
+    // The cells ever evaluated, in tiles of kTileSide × kTileSide cells made when one of their
+    // cells is first evaluated. An index over the tiles' rectangle [tx0_, tx0_ + tnx_) ×
+    // [ty0_, ty0_ + tny_) (tile units, row-major, y outer; null where no tile was made) grows
+    // with some slack when the crowd moves out of it: only pointers are copied, and a cell never
+    // moves once made (a flat grid copied itself as it grew: a 471 m room's 36 MiB grid had its old
+    // and new copies alive together, the 1M run's peak, issue 20). Each tile's `present` marks the
+    // cells evaluated (the others keep a default Cell); bx0_…by1_ bound them. Beyond kMaxIndexTiles
+    // or kMaxGridCells (a crowd scattered very far apart) the cells move to sparseCells_, keyed
+    // (iy, ix), for the rest of the run. (A std::map for every run looked each cell up at every
+    // coarse step: ~12 % of a 10k-agent social-forces run, issue 20.)
+    // The tiles are made in blocks of one huge page (bigAllocate): a 10k-agent crowd's cells,
+    // 3.7 MB, would otherwise cost ~900 page faults of 4 KiB each (issue 20).
+    static constexpr int kTileBits = 4, kTileSide = 1 << kTileBits, kTileCells = kTileSide * kTileSide;
+    struct Tile {
+        Cell cells[kTileCells];
+        unsigned char present[kTileCells] = {};
+    };
+    /// Tiles in blocks of kHugePage bytes, numbered in the order they were made; a tile stays
+    /// where it was made until the store is cleared. Copies copy the tiles.
+    class TileStore {
+    public:
+        TileStore() = default;
+        TileStore(const TileStore& o);
+        TileStore& operator=(const TileStore& o) {
+            if (this != &o) *this = TileStore(o);
+            return *this;
+        }
+        TileStore(TileStore&& o) noexcept { swap(o); }
+        TileStore& operator=(TileStore&& o) noexcept {
+            TileStore gone(std::move(o));
+            swap(gone);
+            return *this;
+        }
+        ~TileStore() { clear(); }
+        /// A new tile of default cells, none present; returns its number.
+        int make();
+        Tile& operator[](int k) {
+            const std::size_t u = static_cast<std::size_t>(k);
+            return static_cast<Tile*>(blocks_[u / kPerBlock])[u % kPerBlock];
+        }
+        const Tile& operator[](int k) const { return const_cast<TileStore&>(*this)[k]; }
+        std::size_t size() const { return count_; }
+        void clear() noexcept;
+
+    private:
+        static constexpr std::size_t kPerBlock = kHugePage / sizeof(Tile);
+        std::vector<void*> blocks_;
+        std::size_t count_ = 0;
+        void swap(TileStore& o) noexcept {
+            blocks_.swap(o.blocks_);
+            std::swap(count_, o.count_);
+        }
+    };
+    static constexpr double kMaxGridCells = 1 << 22;  ///< most cells in tiles (608 MB) before the map
+    static constexpr double kMaxIndexTiles = 1 << 20;  ///< largest index (8 MB of pointers, ~16 km a side)
+    static constexpr int kIndexSlack = 4;             ///< tiles an index side grows by beyond the need
+    TileStore store_;
+    std::vector<int> tiles_;  ///< the number of each tile in store_, -1 where none was made
+    int tx0_ = 0, ty0_ = 0, tnx_ = 0, tny_ = 0;
     int bx0_ = 0, bx1_ = -1, by0_ = 0, by1_ = -1;  ///< bounds of the present cells (empty: bx1_ < bx0_)
     bool sparse_ = false;
     std::map<std::pair<int, int>, Cell> sparseCells_;
@@ -164,10 +209,29 @@ private:
     double maxPressure_ = 0;
 
     void recordAt(const AgentStore& agents, double t, const HealthLayer* health);
-    /// Makes the flat grid cover cells [x0, x1] × [y0, y1]; false when that would exceed
-    /// kMaxGridCells (the cells have then moved to sparse_).
+    /// Makes the tile index cover cells [x0, x1] × [y0, y1] (tiles are made by tileFor); false when
+    /// that would exceed kMaxIndexTiles (the cells have then moved to sparseCells_).
     bool cover(int x0, int y0, int x1, int y1);
-    /// The cell (x, y), evaluated from now on.
+    /// The index slot of the tile holding cell (x, y), which the index covers.
+    int& tileSlot(int x, int y) {
+        return tiles_[static_cast<std::size_t>((y >> kTileBits) - ty0_) * static_cast<std::size_t>(tnx_) +
+                      static_cast<std::size_t>((x >> kTileBits) - tx0_)];
+    }
+    /// The tile holding cell (x, y); null when none was made (or the cells are in the map).
+    const Tile* tileOf(int x, int y) const {
+        if (sparse_ || tnx_ == 0) return nullptr;
+        const int tx = (x >> kTileBits) - tx0_, ty = (y >> kTileBits) - ty0_;
+        if (tx < 0 || ty < 0 || tx >= tnx_ || ty >= tny_) return nullptr;
+        const int k = tiles_[static_cast<std::size_t>(ty) * static_cast<std::size_t>(tnx_) + static_cast<std::size_t>(tx)];
+        return k >= 0 ? &store_[k] : nullptr;
+    }
+    static int inTile(int x, int y) { return ((y & (kTileSide - 1)) << kTileBits) | (x & (kTileSide - 1)); }
+    /// Makes the tile of slot `slot` if it is missing; false (and the cells move to the map) when
+    /// one more tile would exceed kMaxGridCells.
+    bool makeTile(int& slot);
+    /// Moves the evaluated cells to sparseCells_, for good.
+    void goSparse();
+    /// Marks cell (x, y) evaluated (the bounds grow to it) and returns it.
     Cell& cellAt(int x, int y);
     /// f(x, y, cell) for every evaluated cell, y ascending then x ascending.
     template <class F>
