@@ -62,13 +62,14 @@ void AgentStore::removeMarked(const std::vector<unsigned char>& remove) {
 }
 
 void AgentStore::permute(const std::vector<int>& order) {
-    // In place from a copy, as remapColumn: every column keeps its buffer and its room for agents
-    // still to come, and the copy (a mapping of its own when large) is freed before the next
-    // column's is made.
+    // In place, as remapColumn (which a permutation never asks for a fresh value): every column
+    // keeps its buffer and its room for agents still to come.
     forEachColumn([&](auto& column) {
         using T = typename std::remove_reference_t<decltype(column)>::value_type;
-        const std::vector<T, BigAllocator<T>> before(column.begin(), column.end());
-        for (std::size_t k = 0; k < order.size(); ++k) column[k] = before[static_cast<std::size_t>(order[k])];
+        if constexpr (std::is_same_v<T, Vec2>)
+            remapColumn(column, order, Vec2(0, 0));
+        else
+            remapColumn(column, order, T{});
     });
 }
 
