@@ -219,3 +219,36 @@ BOOST_AUTO_TEST_CASE(grid_built_on_two_threads_is_the_serial_one) {
         }
     }
 }
+
+BOOST_AUTO_TEST_CASE(grid_without_its_copy_of_the_positions_makes_the_same_calls) {
+    // keepPositions(false): queries read the points through order() instead of the grid's copy,
+    // with the same calls (index, offset, squared distance, to the bit) in the same order, on a
+    // plane and on a torus, on one thread and two; and a grid built again with the copy has it.
+    const auto pts = randomPoints(3000, -20, 20, 23);
+    struct Call {
+        int j;
+        double dx, dy, d2;
+        bool operator==(const Call& o) const { return j == o.j && dx == o.dx && dy == o.dy && d2 == o.d2; }
+    };
+    for (const bool periodic : {false, true})
+        for (int threads = 1; threads <= 2; ++threads) {
+            omp_set_num_threads(threads);
+            std::vector<Call> calls[2];
+            PointGrid grid;
+            for (const bool keep : {true, false}) {
+                grid.keepPositions(keep);
+                grid.build(pts, 1.0, periodic, 40.0, 40.0);
+                BOOST_TEST(grid.sortedX().size() == (keep ? pts.size() : 0u));
+                for (int q = 0; q < 3000; q += 29)
+                    grid.forEachCandidate(pts[q] + Vec2(0.01, -0.02), 1.4, [&](int j, const Vec2& d, double d2) {
+                        calls[keep ? 0 : 1].push_back(Call{j, d.x(), d.y(), d2});
+                    });
+            }
+            BOOST_TEST(calls[0].size() > 2000u);
+            BOOST_TEST((calls[0] == calls[1]), "periodic " << periodic << ", " << threads << " threads");
+            grid.keepPositions(true);
+            grid.build(pts, 1.0, periodic, 40.0, 40.0);
+            BOOST_TEST(grid.sortedX().size() == pts.size());
+        }
+    omp_set_num_threads(2);
+}

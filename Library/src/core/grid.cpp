@@ -69,8 +69,13 @@ void PointGrid::build(const std::vector<Vec2>& points, double cellSize, bool per
     cellStart_.assign(ncells + 1, 0);
     cellOf_.resize(n);
     sorted_.resize(n);
-    sortedX_.resize(n);
-    sortedY_.resize(n);
+    if (keepPositions_) {
+        sortedX_.resize(n);
+        sortedY_.resize(n);
+    } else {
+        std::vector<double>().swap(sortedX_);
+        std::vector<double>().swap(sortedY_);
+    }
     const auto cellIndex = [&](const Vec2& p) {
         int x = cellX(p.x()), y = cellY(p.y());
         if (periodic_) {
@@ -124,8 +129,10 @@ void PointGrid::build(const std::vector<Vec2>& points, double cellSize, bool per
             for (std::size_t i = begin; i < end; ++i) {
                 const int k = count[cellOf_[i]]++;
                 sorted_[k] = static_cast<int>(i);
-                sortedX_[k] = points[i].x();
-                sortedY_[k] = points[i].y();
+                if (keepPositions_) {
+                    sortedX_[k] = points[i].x();
+                    sortedY_[k] = points[i].y();
+                }
             }
         }
         return;
@@ -140,8 +147,10 @@ void PointGrid::build(const std::vector<Vec2>& points, double cellSize, bool per
     for (std::size_t i = 0; i < n; ++i) {
         const int k = fill_[cellOf_[i]]++;
         sorted_[k] = static_cast<int>(i);
-        sortedX_[k] = points[i].x();
-        sortedY_[k] = points[i].y();
+        if (keepPositions_) {
+            sortedX_[k] = points[i].x();
+            sortedY_[k] = points[i].y();
+        }
     }
 }
 

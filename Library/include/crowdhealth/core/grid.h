@@ -49,7 +49,14 @@ public:
     double cellSize() const { return cw_; }
     bool periodic() const { return periodic_; }
 
-    /// x and y of the points in order() (structure of arrays, for vectorised queries).
+    /// Whether the next build() keeps a copy of the points' coordinates in cell order (sortedX(),
+    /// sortedY(): 16 bytes per point, true by default), which queries read contiguously. Without
+    /// it they read the points through order(): the same calls in the same order, for half the
+    /// grid's memory (a one-off grid over a large crowd, as ch::measureDensity builds).
+    void keepPositions(bool keep) { keepPositions_ = keep; }
+
+    /// x and y of the points in order() (structure of arrays, for vectorised queries); empty when
+    /// the grid was built without keepPositions.
     const std::vector<double>& sortedX() const { return sortedX_; }
     const std::vector<double>& sortedY() const { return sortedY_; }
 
@@ -97,6 +104,18 @@ private:
     std::vector<int> sorted_;     ///< point indices, grouped by cell (row-major cells)
     std::vector<double> sortedX_, sortedY_;  ///< points[sorted_[k]]: queries read positions contiguously
     std::vector<int> cellOf_, fill_;  ///< build scratch, kept to avoid allocating every step
+    bool keepPositions_ = true;
+
+    /// forEachCandidate, reading the positions from sortedX_/sortedY_ (kCopies) or via sorted_.
+    template <bool kCopies, class F>
+    void scanCandidates(const Vec2& p, double radius, F&& f) const;
+    template <bool kCopies>
+    Vec2 sortedPosition(int k) const {
+        if constexpr (kCopies)
+            return Vec2(sortedX_[static_cast<std::size_t>(k)], sortedY_[static_cast<std::size_t>(k)]);
+        else
+            return (*points_)[static_cast<std::size_t>(sorted_[static_cast<std::size_t>(k)])];
+    }
 
     int cellX(double x) const { return floorToInt((x - origin_.x()) / cw_); }
     /// floor(v) for a cell coordinate, limited to [-1, n] (NaN gives -1) without calling floor.
@@ -153,6 +172,14 @@ template <class F>
 void PointGrid::forEachCandidate(const Vec2& query, double radius, F&& f) const {
     if (points_ == nullptr || sorted_.empty()) return;
     const Vec2 p = query;  // a local copy: f may store to memory the query point could alias
+    if (keepPositions_)
+        scanCandidates<true>(p, radius, f);
+    else
+        scanCandidates<false>(p, radius, f);
+}
+
+template <bool kCopies, class F>
+void PointGrid::scanCandidates(const Vec2& p, double radius, F&& f) const {
     if (!periodic_) {
         // Only the cells touched by the query disc's bounding box (boxAround). Cells of one row
         // are contiguous in sorted_, so each row is one run over sortedX_/sortedY_. The visit
@@ -168,7 +195,7 @@ void PointGrid::forEachCandidate(const Vec2& query, double radius, F&& f) const 
             const int row = y * nx_;
             const int end = cellStart_[row + b.x1 + 1];
             for (int k = cellStart_[row + b.x0]; k < end; ++k) {
-                const Vec2 d = Vec2(sortedX_[k], sortedY_[k]) - p;
+                const Vec2 d = sortedPosition<kCopies>(k) - p;
                 f(sorted_[k], d, d.squaredNorm());
             }
         }
@@ -184,7 +211,7 @@ void PointGrid::forEachCandidate(const Vec2& query, double radius, F&& f) const 
             const int y = ((cy + oy) % ny_ + ny_) % ny_;
             const int c = y * nx_ + x;
             for (int k = cellStart_[c]; k < cellStart_[c + 1]; ++k) {
-                Vec2 d = Vec2(sortedX_[k], sortedY_[k]) - p;
+                Vec2 d = sortedPosition<kCopies>(k) - p;
                 d.x() -= width_ * std::round(d.x() / width_);
                 d.y() -= height_ * std::round(d.y() / height_);
                 f(sorted_[k], d, d.squaredNorm());
