@@ -260,7 +260,15 @@ BOOST_AUTO_TEST_CASE(crowd_field_knows_each_agents_cell) {
             BOOST_REQUIRE(k < f.size());
             BOOST_TEST(f.ix[k] == static_cast<int>(std::floor(a.pos[i].x() / 0.5)));
             BOOST_TEST(f.iy[k] == static_cast<int>(std::floor(a.pos[i].y() / 0.5)));
+            BOOST_TEST(f.find(f.ix[k], f.iy[k]) == k);
         }
+        // find(): every entry at its place; cells beyond the rectangle (or not evaluated) are not.
+        for (std::size_t k = 0; k < f.size(); k += 7) BOOST_TEST_REQUIRE(f.find(f.ix[k], f.iy[k]) == k);
+        const int x0 = *std::min_element(f.ix.begin(), f.ix.end()), x1 = *std::max_element(f.ix.begin(), f.ix.end());
+        const int y0 = f.iy.front(), y1 = f.iy.back();
+        for (const auto& [x, y] : {std::pair{x0 - 1, y0}, std::pair{x1 + 1, y0}, std::pair{x0, y0 - 1}, std::pair{x0, y1 + 1},
+                                   std::pair{x1 + 1, y1}})
+            BOOST_TEST(f.find(x, y) == f.size(), "scattered " << scattered << " cell " << x << ", " << y);
     }
 }
 

@@ -237,6 +237,12 @@ double CrowdField::maxDensity() const {
 }
 
 std::size_t CrowdField::find(int x, int y) const {
+    if (size() == 0) return 0;
+    if (keys_.empty()) {  // the whole rectangle [ix.front(), ix.back()] × [iy.front(), iy.back()]
+        if (x < ix.front() || x > ix.back() || y < iy.front() || y > iy.back()) return size();
+        return static_cast<std::size_t>(y - iy.front()) * static_cast<std::size_t>(ix.back() - ix.front() + 1) +
+               static_cast<std::size_t>(x - ix.front());
+    }
     const std::uint64_t key = cellKey(x, y);
     const auto it = std::lower_bound(keys_.begin(), keys_.end(), key);
     return it != keys_.end() && *it == key ? static_cast<std::size_t>(it - keys_.begin()) : size();
@@ -294,15 +300,17 @@ CrowdField crowdField(const AgentStore& agents, double cellSize, double R) {
         }
     }
     const std::size_t cells = f.ix.size();
-    f.keys_.resize(cells);
-    for (std::size_t c = 0; c < cells; ++c) f.keys_[c] = CrowdField::cellKey(f.ix[c], f.iy[c]);
+    // Per agent, its cell: by position in the dense rectangle (row-major), by search otherwise.
+    const bool dense = cells > 0 && cells == static_cast<std::size_t>(f.ix.back() - f.ix.front() + 1) *
+                                                 static_cast<std::size_t>(f.iy.back() - f.iy.front() + 1);
+    if (!dense) {
+        f.keys_.resize(cells);
+        for (std::size_t c = 0; c < cells; ++c) f.keys_[c] = CrowdField::cellKey(f.ix[c], f.iy[c]);
+    }
     f.density.assign(cells, 0.0);
     f.velocity.assign(cells, Vec2(0, 0));
     f.weighted.assign(cells, 0);
     f.people.assign(cells, 0);
-    // Per agent, its cell: by position in the dense rectangle (row-major), by search otherwise.
-    const bool dense = cells > 0 && cells == static_cast<std::size_t>(f.ix.back() - f.ix.front() + 1) *
-                                                 static_cast<std::size_t>(f.iy.back() - f.iy.front() + 1);
     const int nx = cells > 0 ? f.ix.back() - f.ix.front() + 1 : 0;
     f.cellOfAgent.resize(n);
     for (std::size_t i = 0; i < n; ++i) {
@@ -311,7 +319,7 @@ CrowdField crowdField(const AgentStore& agents, double cellSize, double R) {
         const std::size_t c = dense ? static_cast<std::size_t>(y - f.iy.front()) * static_cast<std::size_t>(nx) +
                                           static_cast<std::size_t>(x - f.ix.front())
                                     : f.find(x, y);
-        f.cellOfAgent[i] = c;
+        f.cellOfAgent[i] = static_cast<std::uint32_t>(c);
         if (c < cells) ++f.people[c];
     }
     const double norm = 1.0 / (kPi * R * R), invR2 = 1.0 / (R * R);

@@ -45,14 +45,17 @@ struct CrowdField {
     std::vector<unsigned char> weighted;
     std::vector<int> people;       ///< agents whose centre lies in the cell
     /// The entry of each agent's cell (AgentStore index order): the cell its centre lies in.
-    std::vector<std::size_t> cellOfAgent;
+    /// (32 bits: a field has at most a few million entries; 4 MB less at a million agents.)
+    std::vector<std::uint32_t> cellOfAgent;
     std::size_t size() const { return ix.size(); }
     /// The entry of cell (x, y), or size() when it was not evaluated.
     std::size_t find(int x, int y) const;
     double maxDensity() const;
     Vec2 centre(int x, int y) const { return Vec2((x + 0.5) * cellSize, (y + 0.5) * cellSize); }
     static std::uint64_t cellKey(int x, int y);
-    std::vector<std::uint64_t> keys_;  ///< cellKey of each entry, ascending (for find())
+    /// cellKey of each entry, ascending, for find() on cells scattered far apart; empty for the
+    /// cells of a whole rectangle, which find() locates by their row and column.
+    std::vector<std::uint64_t> keys_;
 };
 
 /// Fruin's (1971) level of service for walkways, from the area per person: A ≥ 35 ft² (3.25 m²),
