@@ -147,8 +147,8 @@ private:
     SafetyThresholds t_;
     // The cells ever evaluated, in tiles of kTileSide × kTileSide cells made when one of their
     // cells is first evaluated. An index over the tiles' rectangle [tx0_, tx0_ + tnx_) ×
-    // [ty0_, ty0_ + tny_) (tile units, row-major, y outer; null where no tile was made) grows
-    // with some slack when the crowd moves out of it: only pointers are copied, and a cell never
+    // [ty0_, ty0_ + tny_) (tile units, row-major, y outer; -1 where no tile was made) grows
+    // with some slack when the crowd moves out of it: only the index is copied, and a cell never
     // moves once made (a flat grid copied itself as it grew: a 471 m room's 36 MiB grid had its old
     // and new copies alive together, the 1M run's peak, issue 20). Each tile's `present` marks the
     // cells evaluated (the others keep a default Cell); bx0_…by1_ bound them. Beyond kMaxIndexTiles
@@ -199,7 +199,7 @@ private:
         }
     };
     static constexpr double kMaxGridCells = 1 << 22;  ///< most cells in tiles (608 MB) before the map
-    static constexpr double kMaxIndexTiles = 1 << 20;  ///< largest index (8 MB of pointers, ~16 km a side)
+    static constexpr double kMaxIndexTiles = 1 << 20;  ///< largest index (4 MB of tile numbers, ~16 km a side)
     static constexpr int kIndexSlack = 4;             ///< tiles an index side grows by beyond the need
     TileStore store_;
     std::vector<int> tiles_;  ///< the number of each tile in store_, -1 where none was made
@@ -212,7 +212,7 @@ private:
     double maxPressure_ = 0;
 
     void recordAt(const AgentStore& agents, double t, const HealthLayer* health);
-    /// Makes the tile index cover cells [x0, x1] × [y0, y1] (tiles are made by tileFor); false when
+    /// Makes the tile index cover cells [x0, x1] × [y0, y1] (tiles are made by makeTile); false when
     /// that would exceed kMaxIndexTiles (the cells have then moved to sparseCells_).
     bool cover(int x0, int y0, int x1, int y1);
     /// The index slot of the tile holding cell (x, y), which the index covers.
