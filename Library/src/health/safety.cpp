@@ -436,7 +436,7 @@ bool SafetyRecorder::cover(int x0, int y0, int x1, int y1) {
     const int nx0 = x0 >> kTileBits, ny0 = y0 >> kTileBits, nx1 = x1 >> kTileBits, ny1 = y1 >> kTileBits;
     if (tnx_ > 0 && nx0 >= tx0_ && ny0 >= ty0_ && nx1 < tx0_ + tnx_ && ny1 < ty0_ + tny_) return true;
     // The union with the present index and kIndexSlack tiles more on each side that grows (a
-    // crowd walking away moves the rectangle a little at every step); only pointers move.
+    // crowd walking away moves the rectangle a little at every step); only tile numbers move.
     int ux0 = nx0, uy0 = ny0, ux1 = nx1, uy1 = ny1;
     if (tnx_ > 0) {
         ux0 = std::min(ux0, tx0_), uy0 = std::min(uy0, ty0_);
