@@ -11,6 +11,8 @@
 #include <array>
 #include <atomic>
 #include <cmath>
+#include <limits>
+#include <stdexcept>
 
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 #include <immintrin.h>
@@ -233,9 +235,16 @@ bool NeighbourLists::setGatherPath(int path) {
     return true;
 }
 
-NeighbourLists::Slice NeighbourLists::slice(int thread, const Place& at, std::size_t count) {
-    return Slice{static_cast<std::uint32_t>(thread), static_cast<std::uint32_t>(at.block),
-                 static_cast<std::uint32_t>(at.begin), static_cast<std::uint32_t>(count)};
+NeighbourLists::Slice NeighbourLists::slice(int thread, const Place& at, std::size_t count, std::size_t segments) {
+    // Blocks double up to 64 MiB: 65,536 of them per thread would be 4 TiB of lists.
+    constexpr std::size_t kMax16 = std::numeric_limits<std::uint16_t>::max();
+    constexpr std::size_t kMax32 = std::numeric_limits<std::uint32_t>::max();
+    if (static_cast<std::size_t>(thread) > kMax16 || at.block > kMax16 || at.begin > kMax32 || count > kMax32 ||
+        segments > kMax32)
+        throw std::length_error("neighbour lists: more threads, blocks or entries than a slice can address");
+    return Slice{static_cast<std::uint32_t>(at.begin), static_cast<std::uint32_t>(count),
+                 static_cast<std::uint32_t>(segments), static_cast<std::uint16_t>(thread),
+                 static_cast<std::uint16_t>(at.block)};
 }
 
 const PointGrid& NeighbourLists::prepareGrid(const std::vector<Vec2>& positions, const PointGrid& stepGrid,
@@ -282,36 +291,33 @@ void NeighbourLists::build(const std::vector<Vec2>& positions, const PointGrid& 
     positions_ = &positions;
     periodic_ = world.periodic();
     const int threads = std::max(1, omp_get_max_threads());
-    if (agentBuffers_.size() < static_cast<std::size_t>(threads)) {
-        agentBuffers_.resize(static_cast<std::size_t>(threads));
-        segmentBuffers_.resize(static_cast<std::size_t>(threads));
+    if (buffers_.size() < static_cast<std::size_t>(threads)) {
+        buffers_.resize(static_cast<std::size_t>(threads));
         scratch_.resize(static_cast<std::size_t>(threads));
     }
-    agentSlice_.resize(n);
-    segmentSlice_.resize(n);
+    slices_.resize(n);
 
 #pragma omp parallel num_threads(threads) if (parallelNeighbourLoop(n))
     {
         const int t = omp_get_thread_num();
-        BlockBuffer<int>& out = agentBuffers_[static_cast<std::size_t>(t)];
-        BlockBuffer<int>& segOut = segmentBuffers_[static_cast<std::size_t>(t)];
+        BlockBuffer<int>& out = buffers_[static_cast<std::size_t>(t)];
         std::vector<int>& near = scratch_[static_cast<std::size_t>(t)];
         out.clear();
-        segOut.clear();
 #pragma omp for schedule(static)
         for (std::ptrdiff_t ii = 0; ii < static_cast<std::ptrdiff_t>(n); ++ii) {
             const std::size_t i = static_cast<std::size_t>(ii);
             const double r = rangeOfGroup[static_cast<std::size_t>(group[i])];
-            Place at;
-            const std::size_t count = gatherAgents(grid, positions[i], r, static_cast<int>(i),
-                                                   [&](std::size_t most) { return out.open(at, most); });
-            out.close(at, count);
-            agentSlice_[i] = slice(t, at, count);
+            // The segments first, so that the room asked for covers both lists: the agents' list,
+            // then the segments written over whatever the gather wrote past its last entry.
             world.segmentsNear(positions[i], r, near);
-            Place sat;
-            std::copy(near.begin(), near.end(), segOut.open(sat, near.size()));
-            segOut.close(sat, near.size());
-            segmentSlice_[i] = slice(t, sat, near.size());
+            Place at;
+            int* list = nullptr;
+            const std::size_t count = gatherAgents(grid, positions[i], r, static_cast<int>(i), [&](std::size_t most) {
+                return list = out.open(at, most + near.size());
+            });
+            std::copy(near.begin(), near.end(), list + count);
+            out.close(at, count + near.size());
+            slices_[i] = slice(t, at, count, near.size());
         }
     }
 }
@@ -324,8 +330,7 @@ void NeighbourLists::bind(const std::vector<Vec2>& positions, const PointGrid& s
     periodic_ = world.periodic();
     streaming_ = true;
     // No stored lists (size() = 0) until the next build(); the buffers keep their blocks.
-    agentSlice_.clear();
-    segmentSlice_.clear();
+    slices_.clear();
 }
 
 std::span<const NeighbourAgent> NeighbourLists::agents(std::size_t i, std::vector<NeighbourAgent>& scratch) const {

@@ -84,13 +84,13 @@ public:
                 std::span<const int>& segments) const;
 
     /// Agents with stored lists: those of the last build(); 0 after bind().
-    std::size_t size() const { return agentSlice_.size(); }
+    std::size_t size() const { return slices_.size(); }
     /// The radius (m) agent i's lists were gathered with.
     double radius(std::size_t i) const { return rangeOfGroup_[static_cast<std::size_t>((*group_)[i])]; }
     /// Other agents within radius(i): their indices in AgentStore, as stored.
     std::span<const int> indices(std::size_t i) const {
-        const Slice& s = agentSlice_[i];
-        return {agentBuffers_[s.thread].data(s.block, s.begin), s.count};
+        const Slice& s = slices_[i];
+        return {buffers_[s.thread].data(s.block, s.begin), s.count};
     }
     /// positions[j] − positions[i] (the shortest such vector on a torus): the offset the grid saw
     /// when it put j in i's list, to the bit.
@@ -114,8 +114,8 @@ public:
     }
     /// Wall segments within radius(i), ascending.
     std::span<const int> segments(std::size_t i) const {
-        const Slice& s = segmentSlice_[i];
-        return {segmentBuffers_[s.thread].data(s.block, s.begin), s.count};
+        const Slice& s = slices_[i];
+        return {buffers_[s.thread].data(s.block, s.begin) + s.count, s.segments};
     }
 
 private:
@@ -186,11 +186,15 @@ private:
         std::size_t current_ = 0;
     };
 
-    /// One agent's list: 16 bytes (a million agents have two of them).
+    /// One agent's lists, 16 bytes: `count` agent indices from `begin` in block `block` of thread
+    /// `thread`'s buffer, then its `segments` wall segments (one slice for both lists: 16 MB less
+    /// at a million agents than a slice for each, issue 20).
     struct Slice {
-        std::uint32_t thread, block, begin, count;
+        std::uint32_t begin, count, segments;
+        std::uint16_t thread, block;
     };
-    static Slice slice(int thread, const Place& at, std::size_t count);
+    static_assert(sizeof(Slice) == 16);
+    static Slice slice(int thread, const Place& at, std::size_t count, std::size_t segments);
     /// The grid the lists come from (fine_ for long ranges, else `stepGrid`), after building fine_
     /// when needed; also keeps group and rangeOfGroup.
     const PointGrid& prepareGrid(const std::vector<Vec2>& positions, const PointGrid& stepGrid, const World& world,
@@ -200,10 +204,9 @@ private:
     template <class Open>
     std::size_t gatherAgents(const PointGrid& grid, const Vec2& p, double r, int self, Open&& open) const;
 
-    std::vector<BlockBuffer<int>> agentBuffers_;             ///< one per thread: agent indices
-    std::vector<BlockBuffer<int>> segmentBuffers_;           ///< one per thread
-    std::vector<std::vector<int>> scratch_;                  ///< one per thread: segment query
-    std::vector<Slice> agentSlice_, segmentSlice_;           ///< per agent, into the buffers
+    std::vector<BlockBuffer<int>> buffers_;   ///< one per thread: each agent's indices, then its segments
+    std::vector<std::vector<int>> scratch_;   ///< one per thread: segment query
+    std::vector<Slice> slices_;               ///< per agent, into the buffers
     PointGrid fine_;  ///< the finer grid for long ranges (kept: no allocation per step)
     const std::vector<int>* group_ = nullptr;
     std::vector<double> rangeOfGroup_;
