@@ -56,7 +56,8 @@ po::options_description visibleOptions() {
          "kept, files named as this run's outputs are replaced (without it such a folder is refused)")
         ("quiet,q", "no progress bar and no closing summary")
         ("timing", "say where the run's wall time went: in the simulation's steps, in recording "
-         "(metrics, safety grid, measurement, trajectories) and the rest (also with --quiet)")
+         "and the rest, then the recording by recorder (safety grid, metrics, measurement, "
+         "trajectories); also with --quiet")
         ("check", "validate the scenario (load and build it), print a one-line summary, write nothing")
         ("plugin", po::value<std::vector<std::string>>()->composing()->value_name("FILE"),
          "load a plugin (a shared library of cost functions and forces, docs/adding-a-policy.md) "

@@ -24,15 +24,19 @@ namespace fs = std::filesystem;
 
 namespace {
 
-/// --timing's line: "  of which       S s in steps (P %), R s recording (Q %), O s other\n", the parts
-/// of the loop's wall time (the rest: the loop's own bookkeeping and progress display).
+/// --timing's lines: "  of which       S s in steps (P %), R s recording (Q %), O s other\n", the
+/// parts of the loop's wall time (the rest: the loop's own bookkeeping and progress display), then
+/// "  recording       A s safety grid (P %), B s metrics (…), C s measurement (…), D s
+/// trajectories (…)\n", the recorders' shares of R (the percentages again of the wall time).
 std::string timingLine(const ch::RunInfo& info) {
     const double wall = info.wallTimeSeconds;
     const double other = std::max(0.0, wall - info.stepSeconds - info.recordSeconds);
     auto share = [&](double s) { return wall > 0 ? " (" + ch::formatNumber(100.0 * s / wall, 2) + " %)" : std::string(); };
-    return "  of which       " + ch::formatNumber(info.stepSeconds, 3) + " s in steps" + share(info.stepSeconds) + ", " +
-           ch::formatNumber(info.recordSeconds, 3) + " s recording" + share(info.recordSeconds) + ", " +
-           ch::formatNumber(other, 3) + " s other\n";
+    auto part = [&](double s, const char* what) { return ch::formatNumber(s, 3) + " s " + what + share(s); };
+    return "  of which       " + part(info.stepSeconds, "in steps") + ", " + part(info.recordSeconds, "recording") + ", " +
+           ch::formatNumber(other, 3) + " s other\n" + "  recording      " + part(info.safetySeconds, "safety grid") +
+           ", " + part(info.metricsSeconds, "metrics") + ", " + part(info.measurementSeconds, "measurement") + ", " +
+           part(info.trajectorySeconds, "trajectories") + "\n";
 }
 
 /// Loads the scenario and builds the simulation. On any problem prints every diagnostic to

@@ -224,16 +224,31 @@ RunSession::~RunSession() = default;
 const ch::MetricsRecorder& RunSession::metrics() const { return rec_->metrics; }
 ch::MetricsPeaks RunSession::peaks() const { return rec_->metrics.peaks(); }
 
-void RunSession::begin() {
-    const auto wallStart = std::chrono::steady_clock::now();
-    rec_->safety.record(sim_);   // before the metrics row: it gives the crowd_pressure column
+void RunSession::record(bool first) {
+    using Clock = std::chrono::steady_clock;
+    const auto t0 = Clock::now();
+    rec_->safety.record(sim_);  // before the metrics row: it gives the crowd_pressure column
+    const auto t1 = Clock::now();
     rec_->measurement.record(sim_);
-    rec_->metrics.sample(sim_);  // the t = 0 row, before the first step
-    if (rec_->trajectory) rec_->trajectory->record(sim_);  // frame 0
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - wallStart).count();
-    recordSeconds_ += seconds;
-    wallSeconds_ += seconds;
+    const auto t2 = Clock::now();
+    if (first) rec_->metrics.sample(sim_);  // the t = 0 row, before the first step
+    else rec_->metrics.maybeSample(sim_);
+    const auto t3 = Clock::now();
+    if (rec_->trajectory) {
+        if (first) rec_->trajectory->record(sim_);  // frame 0
+        else rec_->trajectory->maybeRecord(sim_);
+    }
+    const auto t4 = Clock::now();
+    const auto seconds = [](Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); };
+    safetySeconds_ += seconds(t0, t1);
+    measurementSeconds_ += seconds(t1, t2);
+    metricsSeconds_ += seconds(t2, t3);
+    trajectorySeconds_ += seconds(t3, t4);
+    recordSeconds_ += seconds(t0, t4);
+    wallSeconds_ += seconds(t0, t4);
 }
+
+void RunSession::begin() { record(true); }
 
 bool RunSession::done() {
     if (ended_ || sim_.finished()) return true;
@@ -248,15 +263,10 @@ void RunSession::step() {
     using Clock = std::chrono::steady_clock;
     const auto wallStart = Clock::now();
     sim_.stepCoarse();
-    const auto stepped = Clock::now();
-    rec_->safety.record(sim_);
-    rec_->measurement.record(sim_);
-    rec_->metrics.maybeSample(sim_);
-    if (rec_->trajectory) rec_->trajectory->maybeRecord(sim_);
-    const auto recorded = Clock::now();
-    stepSeconds_ += std::chrono::duration<double>(stepped - wallStart).count();
-    recordSeconds_ += std::chrono::duration<double>(recorded - stepped).count();
-    wallSeconds_ += std::chrono::duration<double>(recorded - wallStart).count();
+    const double seconds = std::chrono::duration<double>(Clock::now() - wallStart).count();
+    stepSeconds_ += seconds;
+    wallSeconds_ += seconds;
+    record(false);
 }
 
 void RunSession::end() {
@@ -267,6 +277,10 @@ void RunSession::end() {
     info_.wallTimeSeconds = wallSeconds_;
     info_.stepSeconds = stepSeconds_;
     info_.recordSeconds = recordSeconds_;
+    info_.safetySeconds = safetySeconds_;
+    info_.metricsSeconds = metricsSeconds_;
+    info_.measurementSeconds = measurementSeconds_;
+    info_.trajectorySeconds = trajectorySeconds_;
     verdict_ = verdict();  // the run's: computed while ended_ is still false
     ended_ = true;
 }

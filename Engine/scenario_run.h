@@ -146,6 +146,10 @@ private:
     bool ended_ = false;
     double wallSeconds_ = 0;
     double stepSeconds_ = 0, recordSeconds_ = 0;  ///< of wallSeconds_: the steps, the recorders
+    /// Of recordSeconds_, each recorder's (RunInfo::safetySeconds …).
+    double safetySeconds_ = 0, metricsSeconds_ = 0, measurementSeconds_ = 0, trajectorySeconds_ = 0;
+    /// The recorders after a step (or at t = 0: `first`), each one timed.
+    void record(bool first);
 };
 
 /// Runs `sim` on `threads` OpenMP threads (set in the calling thread) until it finishes, the

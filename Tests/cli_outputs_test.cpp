@@ -257,8 +257,9 @@ BOOST_AUTO_TEST_CASE(safety_thresholds_of_the_scenario_reach_the_verdict_and_the
 }
 
 BOOST_AUTO_TEST_CASE(timing_splits_the_wall_time_into_steps_recording_and_the_rest) {
-    // --timing adds one line to the closing summary (and prints it alone with --quiet): seconds in
-    // the simulation's steps, in recording, and the rest, which add up to the wall time printed.
+    // --timing adds two lines to the closing summary (and prints them alone with --quiet): seconds
+    // in the simulation's steps, in recording, and the rest, which add up to the wall time printed;
+    // then the recording by recorder.
     // The doorway base case for 10 s with PedPy trajectories: ~13 % of its loop is recording.
     const fs::path dir = freshDir(caseName());
     const std::string scenario = (fs::path(CH_SOURCE_DIR) / "Examples" / "doorway" / "base-case.xml").string();
@@ -266,16 +267,32 @@ BOOST_AUTO_TEST_CASE(timing_splits_the_wall_time_into_steps_recording_and_the_re
                                "--trajectories", "txt"});
     BOOST_REQUIRE_MESSAGE(r.status == 0, r.err);
     double wall = -1, steps = -1, recording = -1, other = -1;
+    double safety = -1, metrics = -1, measurement = -1, trajectories = -1;
     for (const std::string& l : lines(r.out)) {
         if (l.rfind("  of which ", 0) == 0) {
             BOOST_TEST(std::sscanf(l.c_str(), "  of which %lf s in steps (%*f %%), %lf s recording (%*f %%), %lf s other",
                                    &steps, &recording, &other) == 3, l);
+        }
+        if (l.rfind("  recording ", 0) == 0) {
+            BOOST_TEST(std::sscanf(l.c_str(),
+                                   "  recording %lf s safety grid (%*f %%), %lf s metrics (%*f %%), %lf s measurement "
+                                   "(%*f %%), %lf s trajectories (%*f %%)",
+                                   &safety, &metrics, &measurement, &trajectories) == 4, l);
         }
     }
     wall = steps + recording + other;
     BOOST_TEST(steps > 0, r.out);
     BOOST_TEST(recording > 0, r.out);  // metrics, the safety grid and the verdict's records
     BOOST_TEST(other >= 0, r.out);
+    // The recording's parts, each where it runs: the safety grid's records, the metrics rows and
+    // the text trajectories every coarse step take time; this scene measures nothing. They add up
+    // to the recording (3 significant digits each, and clock readings a few ns apart).
+    BOOST_TEST(safety > 0, r.out);
+    BOOST_TEST(metrics > 0, r.out);
+    BOOST_TEST(trajectories > 0, r.out);
+    BOOST_TEST(measurement >= 0, r.out);
+    BOOST_TEST(measurement < 0.01 * recording, r.out);  // no lines or areas: it returns at once
+    BOOST_TEST(std::abs(safety + metrics + measurement + trajectories - recording) <= 0.01 * recording, r.out);
     // The loop does nothing else with --quiet: the rest is tiny (~0.1 %; the bound leaves room for
     // the odd preemption between two clock readings), so the recording is counted where it runs.
     BOOST_TEST(other <= 0.05 * wall, r.out);

@@ -373,6 +373,10 @@ struct RunInfo {
     /// Of wallTimeSeconds: inside Simulation::stepCoarse, and in the recorders of the run (metrics,
     /// safety, measurement, trajectories). Display only, not in summary.json.
     double stepSeconds = 0, recordSeconds = 0;
+    /// Of recordSeconds: each recorder's share (display only). Safety: the crowd field, the
+    /// safety grid's cells and the verdict's timelines; metrics: its rows; measurement: lines,
+    /// areas and exits; trajectories: the frames written.
+    double safetySeconds = 0, metricsSeconds = 0, measurementSeconds = 0, trajectorySeconds = 0;
     int threads = 0;
 };
 
