@@ -860,6 +860,24 @@ double processCpuSeconds() {
     return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
 }
 
+/// What `crowdhealth --timing` printed into a log (wall seconds; −1 where the line is missing): in
+/// the steps, in the recorders, and of those the safety grid and the metrics rows.
+struct RunTiming {
+    double steps = -1, recording = -1, safety = -1, metrics = -1;
+};
+RunTiming readTiming(const std::filesystem::path& log) {
+    RunTiming t;
+    std::ifstream in(log);
+    std::string line;
+    while (std::getline(in, line)) {
+        if (line.rfind("  of which ", 0) == 0)
+            std::sscanf(line.c_str(), "  of which %lf s in steps (%*f %%), %lf s recording", &t.steps, &t.recording);
+        if (line.rfind("  recording ", 0) == 0)
+            std::sscanf(line.c_str(), "  recording %lf s safety grid (%*f %%), %lf s metrics", &t.safety, &t.metrics);
+    }
+    return t;
+}
+
 /// The bare step: `steps` calls of Simulation::stepCoarse() on the scene built in code, one thread,
 /// no recorder; msMedian = CPU ms per fine step (the mean over the steps, first included, as for
 /// the process), extra1 = CPU seconds of building the Simulation.
@@ -906,15 +924,16 @@ void runProcessCases(const std::string& crowdhealth, std::size_t n, int reps, bo
         std::printf("\nprocess %s: %zu agents, %d fine steps of %g s, one thread; crowdhealth -i %s -o OUT -t 1 -q "
                     "--trajectories none [--end-time 0.1]\n",
                     sc.name, n, steps, sc.fine, file.c_str());
-        std::printf("%4s  %12s  %12s  %12s  %12s  %8s  %8s  %s\n", "rep", "bare ms/step", "whole ms/st", "fixed s",
-                    "marginal ms", "whole/b", "marg/b", "load");
-        std::vector<double> bare, whole, perStep, fixed;
+        std::printf("%4s  %12s  %12s  %12s  %12s  %8s  %8s  %9s  %9s  %s\n", "rep", "bare ms/step", "whole ms/st",
+                    "fixed s", "marginal ms", "whole/b", "marg/b", "safety ms", "metric ms", "load");
+        std::vector<double> bare, whole, perStep, fixed, safety, metrics;
         bool ok = true;
         for (int k = 0; k < reps && ok; ++k) {
             const Result b = inChild([&] { return runBareCpu(sc.name, n, steps); }, fork);
             const ProcessTime p = runProcess({crowdhealth, "-i", file.string(), "-o", (dir / "out").string(), "-t",
-                                              "1", "-q", "--trajectories", "none"},
+                                              "1", "-q", "--trajectories", "none", "--timing"},
                                              dir / "crowdhealth.log");
+            const RunTiming timing = readTiming(dir / "crowdhealth.log");
             const ProcessTime z = runProcess({crowdhealth, "-i", file.string(), "-o", (dir / "out0").string(), "-t",
                                               "1", "-q", "--trajectories", "none", "--end-time", "0.1"},
                                              dir / "crowdhealth0.log");
@@ -929,16 +948,18 @@ void runProcessCases(const std::string& crowdhealth, std::size_t n, int reps, bo
             whole.push_back(1e3 * p.cpu / steps);
             fixed.push_back(z.cpu);
             perStep.push_back(1e3 * (p.cpu - z.cpu) / (steps - shortSteps));
-            std::printf("%4d  %12.2f  %12.2f  %12.2f  %12.2f  %7.2fx  %7.2fx  %.1f\n", k + 1, bare.back(), whole.back(),
-                        fixed.back(), perStep.back(), whole.back() / bare.back(), perStep.back() / bare.back(),
-                        load[0]);
+            safety.push_back(1e3 * timing.safety / steps);
+            metrics.push_back(1e3 * timing.metrics / steps);
+            std::printf("%4d  %12.2f  %12.2f  %12.2f  %12.2f  %7.2fx  %7.2fx  %9.3f  %9.3f  %.1f\n", k + 1, bare.back(),
+                        whole.back(), fixed.back(), perStep.back(), whole.back() / bare.back(),
+                        perStep.back() / bare.back(), safety.back(), metrics.back(), load[0]);
             std::fflush(stdout);
         }
         if (ok) {
             std::printf("process %-16s %6zu   1  median: bare %.2f ms/step, whole process %.2f (%.2fx), marginal "
-                        "(fixed %.2f s apart) %.2f (%.2fx)\n",
+                        "(fixed %.2f s apart) %.2f (%.2fx); of the whole, safety grid %.3f ms/step, metrics %.3f\n",
                         sc.name, n, median(bare), median(whole), median(whole) / median(bare), median(fixed),
-                        median(perStep), median(perStep) / median(bare));
+                        median(perStep), median(perStep) / median(bare), median(safety), median(metrics));
             for (const char* f : {"out", "out0", "crowdhealth.log", "crowdhealth0.log"}) fs::remove_all(dir / f);
             fs::remove(file);
         }
@@ -1188,7 +1209,8 @@ int main(int argc, char** argv) {
         std::printf("\nprocess: the program as users run it (metrics, safety recorder, verdict, summary; no "
                     "trajectories) against the bare step, CPU ms per fine step, one thread; fixed = the program "
                     "stopped at 0.1 s (loading, first records, outputs, one coarse step); marginal = (whole - fixed) "
-                    "/ the steps between\n");
+                    "/ the steps between; safety, metric = the whole run's safety grid and metrics rows, wall ms per "
+                    "fine step, as its --timing gives them\n");
         runProcessCases(findCrowdHealth(crowdhealthOption), 10000, processReps > 0 ? processReps : quick ? 1 : 3, quick,
                         fork);
         std::fflush(stdout);
