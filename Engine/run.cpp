@@ -26,7 +26,7 @@ namespace {
 
 /// --timing's lines: "  of which       S s in steps (P %), R s recording (Q %), O s other\n", the
 /// parts of the loop's wall time (the rest: the loop's own bookkeeping and progress display), then
-/// "  recording       A s safety grid (P %), B s metrics (…), C s measurement (…), D s
+/// "  recording      A s safety grid (P %), B s metrics (…), C s measurement (…), D s
 /// trajectories (…)\n", the recorders' shares of R (the percentages again of the wall time).
 std::string timingLine(const ch::RunInfo& info) {
     const double wall = info.wallTimeSeconds;

@@ -860,21 +860,18 @@ double processCpuSeconds() {
     return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
 }
 
-/// What `crowdhealth --timing` printed into a log (wall seconds; −1 where the line is missing): in
-/// the steps, in the recorders, and of those the safety grid and the metrics rows.
+/// The safety grid's and the metrics rows' wall seconds in a log of `crowdhealth --timing` (its
+/// second line; −1 where the line is missing, e.g. a build from before it).
 struct RunTiming {
-    double steps = -1, recording = -1, safety = -1, metrics = -1;
+    double safety = -1, metrics = -1;
 };
 RunTiming readTiming(const std::filesystem::path& log) {
     RunTiming t;
     std::ifstream in(log);
     std::string line;
-    while (std::getline(in, line)) {
-        if (line.rfind("  of which ", 0) == 0)
-            std::sscanf(line.c_str(), "  of which %lf s in steps (%*f %%), %lf s recording", &t.steps, &t.recording);
+    while (std::getline(in, line))
         if (line.rfind("  recording ", 0) == 0)
             std::sscanf(line.c_str(), "  recording %lf s safety grid (%*f %%), %lf s metrics", &t.safety, &t.metrics);
-    }
     return t;
 }
 
