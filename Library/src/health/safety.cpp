@@ -300,7 +300,7 @@ CrowdField crowdField(const AgentStore& agents, double cellSize, double R) {
         }
     }
     const std::size_t cells = f.ix.size();
-    // Per agent, its cell: by position in the dense rectangle (row-major), by search otherwise.
+    // A whole rectangle needs no keys: find() locates its cells by row and column.
     const bool dense = cells > 0 && cells == static_cast<std::size_t>(f.ix.back() - f.ix.front() + 1) *
                                                  static_cast<std::size_t>(f.iy.back() - f.iy.front() + 1);
     if (!dense) {
@@ -315,10 +315,7 @@ CrowdField crowdField(const AgentStore& agents, double cellSize, double R) {
     f.cellOfAgent.resize(n);
     for (std::size_t i = 0; i < n; ++i) {
         const Vec2& p = agents.pos[i];
-        const int x = cellIndex(p.x(), cellSize), y = cellIndex(p.y(), cellSize);
-        const std::size_t c = dense ? static_cast<std::size_t>(y - f.iy.front()) * static_cast<std::size_t>(nx) +
-                                          static_cast<std::size_t>(x - f.ix.front())
-                                    : f.find(x, y);
+        const std::size_t c = f.find(cellIndex(p.x(), cellSize), cellIndex(p.y(), cellSize));
         f.cellOfAgent[i] = static_cast<std::uint32_t>(c);
         if (c < cells) ++f.people[c];
     }
