@@ -374,23 +374,20 @@ void HealthLayer::steerPreferred(AgentStore& agents, const PointGrid& grid, doub
     }
 }
 
-void HealthLayer::endStep(AgentStore& agents, double time, double dt) {
-    const std::size_t n = agents.size();
-    const std::ptrdiff_t count = static_cast<std::ptrdiff_t>(n);
-    above_.resize(n);
-    aboveByRecord_.resize(records_.size(), 0);
-    thresholdAtEnd_.resize(params_.size());
-    for (std::size_t p = 0; p < params_.size(); ++p) thresholdAtEnd_[p] = params_[p].crushThreshold;
-    ended_ = true;
-    if (anyCare_) fellNow_.assign(n, 0);
-    // Per agent, in parallel: each iteration writes only its own record, flag and radius. Blocks
-    // of simd::kLanes agents: the turns of a block, atan2(|h₀ × h₁|, h₀ · h₁), in one call of
-    // simd::angleOf (glibc's atan2 one agent at a time was ~2 % of a 10k-agent social-forces run
-    // and of a dense SPH step; issue 20).
+// Blocks [b0, b1) of simd::kLanes agents of endStep. Per block, the turns of its agents,
+// atan2(|h₀ × h₁|, h₀ · h₁), in one call of simd::angleOf (glibc's atan2 one agent at a time was
+// ~2 % of a 10k-agent social-forces run and of a dense SPH step; issue 20). Compiled twice, like
+// the safety grid's scatter: with AVX2 where the CPU has it (angleOf's comparisons and selects
+// are then whole-vector operations; in the SSE2 build GCC 12 compares lane by lane) and for any
+// x86-64 otherwise, chosen when the program starts; neither build fuses a multiply and an add,
+// so both give the same bits.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+__attribute__((target_clones("avx2", "default")))
+#endif
+void HealthLayer::endStepBlocks(AgentStore& agents, double time, double dt, std::ptrdiff_t b0, std::ptrdiff_t b1) {
     constexpr int L = simd::kLanes;
-    const std::ptrdiff_t blocks = (count + L - 1) / L;
-#pragma omp parallel for schedule(static) if (parallelCheapLoop(static_cast<std::size_t>(count)))
-    for (std::ptrdiff_t bb = 0; bb < blocks; ++bb) {
+    const std::size_t n = agents.size();
+    for (std::ptrdiff_t bb = b0; bb < b1; ++bb) {
         // Lanes without a turn this step keep (|cross|, dot) = (0, 1): angle 0, not added.
         simd::DV turnY = simd::splat(0.0), turnX = simd::splat(1.0);
         HealthRecord* turning[L] = {};
@@ -451,6 +448,27 @@ void HealthLayer::endStep(AgentStore& agents, double time, double dt) {
         const simd::DV turn = simd::angleOf(turnY, turnX);
         for (int l = 0; l < L; ++l)
             if (turning[l] != nullptr) turning[l]->headingChange += turn[l];
+    }
+}
+
+void HealthLayer::endStep(AgentStore& agents, double time, double dt) {
+    const std::size_t n = agents.size();
+    const std::ptrdiff_t count = static_cast<std::ptrdiff_t>(n);
+    above_.resize(n);
+    aboveByRecord_.resize(records_.size(), 0);
+    thresholdAtEnd_.resize(params_.size());
+    for (std::size_t p = 0; p < params_.size(); ++p) thresholdAtEnd_[p] = params_[p].crushThreshold;
+    ended_ = true;
+    if (anyCare_) fellNow_.assign(n, 0);
+    // Per agent, in parallel: each iteration writes only its own record, flag and radius. The
+    // blocks are shared out as schedule(static) would, each thread's share in one call of
+    // endStepBlocks (compiled twice: see there).
+    constexpr int L = simd::kLanes;
+    const std::ptrdiff_t blocks = (count + L - 1) / L;
+#pragma omp parallel if (parallelCheapLoop(static_cast<std::size_t>(count)))
+    {
+        const std::ptrdiff_t t = omp_get_thread_num(), threads = omp_get_num_threads();
+        endStepBlocks(agents, time, dt, blocks * t / threads, blocks * (t + 1) / threads);
     }
     // The crowd-level crush summary in agent order (sums in a fixed order: thread-count independent).
     // Injuries happen only above the threshold: anyInjured_ is kept here.
