@@ -132,13 +132,20 @@ void reportUnexpectedElement(LoadContext& ctx, const std::string& file, const XM
 ElementReader::ElementReader(LoadContext& ctx, std::string file, const XMLElement* el, std::string display,
                              const ParamTable& table, std::vector<std::string> extras)
     : ctx_(ctx), file_(std::move(file)), el_(el), display_(std::move(display)), table_(table) {
-    std::vector<std::string> names;
-    for (const ParamSpec& p : table_) names.push_back(p.name);
-    names.insert(names.end(), extras.begin(), extras.end());
     // Attribute names are case-sensitive, as in UMANS (which silently ignores a misspelt one);
-    // we report it, and a case-only difference gets its exact spelling as the suggestion.
+    // we report it, and a case-only difference gets its exact spelling as the suggestion. (The
+    // list of allowed names is made only for a message: this runs for every element of a file,
+    // four times per agent of a UMANS scenario.)
+    auto known = [&](const char* name) {
+        for (const ParamSpec& p : table_)
+            if (p.name == name) return true;
+        return std::find(extras.begin(), extras.end(), name) != extras.end();
+    };
     for (const tinyxml2::XMLAttribute* a = el_->FirstAttribute(); a != nullptr; a = a->Next()) {
-        if (std::find(names.begin(), names.end(), a->Name()) != names.end()) continue;
+        if (known(a->Name())) continue;
+        std::vector<std::string> names;
+        for (const ParamSpec& p : table_) names.push_back(p.name);
+        names.insert(names.end(), extras.begin(), extras.end());
         std::string msg = "unknown attribute '" + std::string(a->Name()) + "' on <" + el_->Name() + ">";
         const std::string hint = closestMatch(a->Name(), names);
         if (!hint.empty())
