@@ -522,11 +522,21 @@ void SafetyRecorder::recordAt(const AgentStore& a, double t, const HealthLayer* 
     // are on it (`flat`), each entry's place in it comes from its row and column, without the
     // look-up of cellAt, and the bounds of the cells evaluated grow once by the field's.
     int x0 = 0, x1 = -1;
-    if (f.size() > 0) x0 = x1 = f.ix[0];
-    for (const int x : f.ix) x0 = std::min(x0, x), x1 = std::max(x1, x);
+    if (f.size() > 0 && f.keys_.empty()) {  // a whole rectangle, row by row
+        x0 = f.ix.front(), x1 = f.ix.back();
+    } else if (f.size() > 0) {
+        x0 = x1 = f.ix[0];
+        for (const int x : f.ix) x0 = std::min(x0, x), x1 = std::max(x1, x);
+    }
     bool flat = f.size() > 0 && cover(x0, f.iy.front(), x1, f.iy.back());
-    // The tiles of every entry, made here (serially) so that the loop below only looks them up.
-    for (std::size_t k = 0; k < f.size() && flat; ++k) flat = makeTile(tileSlot(f.ix[k], f.iy[k]));
+    // The tiles of every entry, made here (serially) so that the loop below only looks them up:
+    // once per run of entries in one tile (a row of the field crosses a tile in kTileSide
+    // entries), in the order of the entries, so that tiles are numbered as they are met.
+    for (std::size_t k = 0, last = 0; k < f.size() && flat; ++k) {
+        if (k > 0 && ((f.ix[k] ^ f.ix[last]) | (f.iy[k] ^ f.iy[last])) >> kTileBits == 0) continue;
+        last = k;
+        flat = makeTile(tileSlot(f.ix[k], f.iy[k]));
+    }
     if (flat) {
         if (bx1_ < bx0_) bx0_ = x0, bx1_ = x1, by0_ = f.iy.front(), by1_ = f.iy.back();
         bx0_ = std::min(bx0_, x0), bx1_ = std::max(bx1_, x1);
