@@ -2,7 +2,6 @@
 #include "crowdhealth/navigation/navigation.h"
 
 #include "crowdhealth/core/parallel.h"
-#include "crowdhealth/core/radix_sort.h"
 #include "crowdhealth/core/rng.h"
 
 #include <algorithm>
@@ -90,8 +89,11 @@ Navigation::Navigation(const ScenarioSpec& spec, const World& world) : spec_(spe
     }
     for (const ExitEventSpec& e : venue.exitEvents) eventTarget_.push_back(venue.targetIndex(e.exit));
     for (const ExitSetSpec& e : venue.exitSets) quickest_ = quickest_ || e.choice == ExitChoice::Quickest;
+    for (const std::vector<int>& exits : setExits_) choiceSlots_ = std::max(choiceSlots_, exits.size());
     for (const JourneySpec& j : venue.journeys) {
         exitSetOf_.push_back(j.leaveBy.empty() ? -1 : venue.exitSetIndex(j.leaveBy));
+        const int set = exitSetOf_.back();
+        quickestJourney_.push_back(set >= 0 && venue.exitSets[static_cast<std::size_t>(set)].choice == ExitChoice::Quickest);
         leaveExitOf_.push_back(j.leaveBy.empty() || exitSetOf_.back() >= 0 ? -1 : venue.targetIndex(j.leaveBy));
         for (const WaypointSpec& w : j.waypoints) {
             const int t = venue.targetIndex(w.target);
@@ -381,7 +383,17 @@ bool Navigation::placeArrival(const AgentStore& agents, const std::vector<std::p
     return place(agents, placed, s, seed, step);
 }
 
-void Navigation::chooseExit(AgentStore& a, std::size_t i, double t, std::uint64_t seed, bool sampled) {
+bool Navigation::choosesNow(const AgentStore& a, std::size_t i, double t, bool changed) const {
+    // Most agents fail on the first two tests, which read per-agent arrays in order.
+    const int j = a.journey[i];
+    if (j < 0 || (!changed && t + 1e-9 < a.nextChoice[i]) || !leaving(a, i)) return false;
+    const std::size_t js = static_cast<std::size_t>(j);
+    if (changed) return !spec_.venue.journeys[js].leaveBy.empty();
+    return quickestJourney_[js] != 0;
+}
+
+void Navigation::chooseExit(AgentStore& a, std::size_t i, double t, std::uint64_t seed, bool sampled,
+                            const double* paths) {
     const VenueSpec& venue = spec_.venue;
     const int j = a.journey[i];
     const int setIndex = exitSetOf_[static_cast<std::size_t>(j)];
@@ -418,6 +430,9 @@ void Navigation::chooseExit(AgentStore& a, std::size_t i, double t, std::uint64_
     bool probed = false;
     auto pathTo = [&](int e) {
         if (e >= 0 && e == known) return a.navDistance[i];
+        if (paths && set)
+            for (std::size_t k = 0; k < candidates.size(); ++k)
+                if (candidates[k] == e && !std::isnan(paths[k])) return paths[k];
         if (fields_.empty()) return distanceTo(e, a.pos[i]);
         if (!probed) {
             probe = grid_->probe(a.pos[i]);
@@ -482,23 +497,22 @@ void Navigation::chooseExit(AgentStore& a, std::size_t i, double t, std::uint64_
                 // Strictly nearer people only: the agent itself (at distance d) is not counted.
                 // (Before the first update, at activation, nobody is counted yet.)
                 double ahead = 0;
-                if (static_cast<std::size_t>(e) < queues_.size()) {
-                    const std::vector<double>& q = queues_[static_cast<std::size_t>(e)];
-                    ahead = static_cast<double>(std::lower_bound(q.begin(), q.end(), d) - q.begin());
-                }
+                if (static_cast<std::size_t>(e) < ranks_.size())
+                    ahead = static_cast<double>(ranks_[static_cast<std::size_t>(e)].countBelow(d));
                 const double w = std::max(0.1, targets_[static_cast<std::size_t>(e)].width);
                 return d / v + ahead / (set->flowCapacity * w);
             };
             int best = openOnes.front();
-            double bestC = kInf;
+            double bestC = kInf, currentC = kInf;  // an open current exit is among openOnes
             for (int e : openOnes) {
                 const double c = cost(e);
+                if (e == current) currentC = c;
                 if (c < bestC) {
                     bestC = c;
                     best = e;
                 }
             }
-            if (!currentOpen || bestC < (1.0 - set->hysteresis) * cost(current)) chosen = best;
+            if (!currentOpen || bestC < (1.0 - set->hysteresis) * currentC) chosen = best;
             if (t + 1e-9 >= a.nextChoice[i]) a.nextChoice[i] = t + set->interval;
             break;
         }
@@ -557,18 +571,52 @@ void Navigation::update(AgentStore& a, double t, std::uint64_t seed) {
             if (a.target[i] >= 0) a.navDir[i] = directionTo(a.target[i], a.pos[i], probes[i - begin], a.navDistance[i]);
     }
 
-    // Per exit: the remaining distances of the people heading there, sorted (the quickest rule's
-    // only input; not gathered in venues without it). Storage is kept from step to step.
-    if (quickest_) {
-        queues_.resize(targets_.size());
-        for (auto& q : queues_) q.clear();
-        for (std::size_t i = 0; i < n; ++i)
-            if (a.journey[i] >= 0 && leaving(a, i) && a.target[i] >= 0)
-                queues_[static_cast<std::size_t>(a.target[i])].push_back(a.navDistance[i]);
-        for (auto& q : queues_) sortDoubles(q, sortKeys_, sortScratch_);
+    // Per exit: the remaining distances of the people heading there, indexed for "how many are
+    // nearer" (the quickest rule's only input; not gathered in venues without it). Storage is kept
+    // from step to step. The same pass lists who chooses an exit of a set in step 3 (a quickest
+    // choice due, or an exit opened or closed) and the paths to their sets' other open exits are
+    // sampled for them here, fetched ahead in runs as in 2, instead of one by one in step 3.
+    choosers_.clear();
+    const bool listChoosers = !fields_.empty() && choiceSlots_ > 0;
+    if (quickest_ || changed) {
+        if (quickest_) {
+            queues_.resize(targets_.size());
+            ranks_.resize(targets_.size());
+            for (auto& q : queues_) q.clear();
+        }
+        for (std::size_t i = 0; i < n; ++i) {
+            const int j = a.journey[i];
+            if (j < 0 || !leaving(a, i)) continue;
+            if (quickest_ && a.target[i] >= 0) queues_[static_cast<std::size_t>(a.target[i])].push_back(a.navDistance[i]);
+            if (listChoosers && exitSetOf_[static_cast<std::size_t>(j)] >= 0 && choosesNow(a, i, t, changed)) choosers_.push_back(i);
+        }
+        if (quickest_)
+            for (std::size_t e = 0; e < queues_.size(); ++e) ranks_[e].assign(queues_[e]);
+        choicePaths_.resize(choosers_.size() * choiceSlots_);
+        for (std::size_t begin = 0; begin < choosers_.size(); begin += kRun) {
+            const std::size_t end = std::min(choosers_.size(), begin + kRun);
+            WalkableGrid::Probe probes[kRun];
+            for (std::size_t m = begin; m < end; ++m) {
+                const std::size_t i = choosers_[m];
+                probes[m - begin] = grid_->probe(a.pos[i]);
+                for (const int e : setExits_[static_cast<std::size_t>(exitSetOf_[static_cast<std::size_t>(a.journey[i])])])
+                    if (e != a.target[i] && open_[static_cast<std::size_t>(e)]) fields_[static_cast<std::size_t>(e)].prefetch(probes[m - begin]);
+            }
+            for (std::size_t m = begin; m < end; ++m) {
+                const std::size_t i = choosers_[m];
+                const std::vector<int>& exits = setExits_[static_cast<std::size_t>(exitSetOf_[static_cast<std::size_t>(a.journey[i])])];
+                double* row = &choicePaths_[m * choiceSlots_];
+                for (std::size_t k = 0; k < exits.size(); ++k) {
+                    const int e = exits[k];
+                    row[k] = std::numeric_limits<double>::quiet_NaN();  // not sampled: read as unknown
+                    if (e != a.target[i] && open_[static_cast<std::size_t>(e)]) directionTo(e, a.pos[i], probes[m - begin], row[k]);
+                }
+            }
+        }
     }
 
     // 3. Dwell ends, arrivals, exit choices (serial, in agent order, on the state of 2).
+    std::size_t nextChooser = 0;
     for (std::size_t i = 0; i < n; ++i) {
         const int j = a.journey[i];
         if (j < 0) continue;
@@ -607,11 +655,11 @@ void Navigation::update(AgentStore& a, double t, std::uint64_t seed) {
             } else {
                 advance(a, i, t, seed);
             }
-        } else if (!js.leaveBy.empty() && (changed || (exitSetOf_[static_cast<std::size_t>(j)] >= 0 &&
-                                                       venue.exitSets[static_cast<std::size_t>(exitSetOf_[static_cast<std::size_t>(j)])].choice ==
-                                                           ExitChoice::Quickest &&
-                                                       t + 1e-9 >= a.nextChoice[i]))) {
-            chooseExit(a, i, t, seed, true);  // step 2 sampled its current target (-1: none)
+        } else if (choosesNow(a, i, t, changed)) {
+            // Step 2 sampled its current target (-1: none), and the pass after it the other exits
+            // of its set (choosers_ is in agent order).
+            const bool listed = nextChooser < choosers_.size() && choosers_[nextChooser] == i;
+            chooseExit(a, i, t, seed, true, listed ? &choicePaths_[nextChooser++ * choiceSlots_] : nullptr);
         }
     }
 

@@ -20,6 +20,7 @@
 #pragma once
 
 #include "crowdhealth/core/agents.h"
+#include "crowdhealth/core/rank_index.h"
 #include "crowdhealth/core/scenario.h"
 #include "crowdhealth/core/world.h"
 #include "crowdhealth/navigation/field.h"
@@ -125,9 +126,16 @@ private:
     std::vector<int> openOnes_;                  ///< chooseExit's scratch: the open candidates
     std::vector<double> openWeights_;            ///< and their weights
     std::vector<Service> services_;
-    std::vector<std::vector<double>> queues_;  ///< per target: sorted distances of those heading there
-    std::vector<std::uint64_t> sortKeys_, sortScratch_;  ///< the queues' sort's scratch
+    std::vector<std::vector<double>> queues_;  ///< per target: distances of those heading there
+    std::vector<RankIndex> ranks_;             ///< per target: queues_ indexed (who is nearer)
     bool quickest_ = false;                    ///< some exit set chooses by the quickest rule
+    /// The agents who choose an exit of a set in this update's step 3, in agent order, and the
+    /// path lengths to their sets' exits, sampled before step 3: chooser m's row of choiceSlots_
+    /// holds the path to its set's k-th exit (NaN where not sampled: closed, or its current target).
+    std::vector<std::size_t> choosers_;
+    std::vector<double> choicePaths_;
+    std::size_t choiceSlots_ = 0;  ///< the most exits of one exit set
+    std::vector<unsigned char> quickestJourney_;  ///< per journey: leaves by a quickest exit set
     /// Per social group (ScenarioSpec::groups), for groups drawn by sources: the id of its first
     /// member (-1: not a source's group), whether that member has been placed, where, and in which step.
     std::vector<AgentId> groupFirst_;
@@ -158,8 +166,13 @@ private:
     void advance(AgentStore& a, std::size_t i, double t, std::uint64_t seed);
     /// Chooses agent i's exit by its journey's rule (a weighted choice stands while its exit is open).
     /// `sampled`: a.navDir[i] and a.navDistance[i] already hold directionTo(a.target[i], a.pos[i])
-    /// (update's step 2), which the choice then reads instead of sampling the field again.
-    void chooseExit(AgentStore& a, std::size_t i, double t, std::uint64_t seed, bool sampled = false);
+    /// (update's step 2), which the choice then reads instead of sampling the field again; `paths`:
+    /// i's row of choicePaths_ (null: none), read the same way.
+    void chooseExit(AgentStore& a, std::size_t i, double t, std::uint64_t seed, bool sampled = false,
+                    const double* paths = nullptr);
+    /// True when update's step 3 has agent i choose its exit: i is leaving by an exit or an exit
+    /// set, and an exit opened or closed in this update (`changed`) or its quickest choice is due.
+    bool choosesNow(const AgentStore& a, std::size_t i, double t, bool changed) const;
     /// Direction of the path from p to `target` and its remaining length in `distance`: along
     /// the target's field, or straight at the target without one (or off the grid).
     Vec2 directionTo(int target, const Vec2& p, double& distance) const;
