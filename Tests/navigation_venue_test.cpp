@@ -385,6 +385,33 @@ BOOST_AUTO_TEST_CASE(quickest_choice_is_the_least_walking_time_plus_wait) {
     BOOST_TEST(wrong == 0u);
 }
 
+BOOST_AUTO_TEST_CASE(nearest_is_decided_once_and_again_only_when_an_exit_opens_or_closes) {
+    // docs/navigation.md: a nearest choice is made when the agent reaches the exit stage and
+    // again at every exit event, not re-decided as it walks (only quickest choices fall due every
+    // interval). Driven by hand: an agent activated by the west wall heads west; moved beside the
+    // east exit it keeps heading west through updates long past any interval; when north (not
+    // one of its exits) closes, everyone re-chooses and it heads east.
+    const Loaded l = load("nearest-once.xml", fourExits("<ExitSet id=\"all\" exits=\"west east\" choice=\"nearest\"/>",
+                                                        agentsAt({Vec2(3, 10)}, "out"),
+                                                        "<CloseExit exit=\"north\" time=\"8\"/>"));
+    BOOST_REQUIRE_MESSAGE(l.spec, l.messages);
+    const ScenarioSpec& spec = *l.spec;
+    const World w(spec.world, spec.obstacles);
+    Navigation nav(spec, w);
+    AgentStore store;
+    store.add(spec.agents[0], 0);
+    nav.activated(store, 0, spec.agents[0], 0.0);
+    const int west = spec.venue.targetIndex("west"), east = spec.venue.targetIndex("east");
+    BOOST_TEST_REQUIRE(store.target[0] == west);
+    store.pos[0] = Vec2(17, 10);
+    for (double t = 0.1; t < 7.95; t += 0.1) {
+        nav.update(store, t, spec.seed);
+        BOOST_TEST_REQUIRE(store.target[0] == west, "t = " << t);
+    }
+    nav.update(store, 8.0, spec.seed);
+    BOOST_TEST(store.target[0] == east);
+}
+
 BOOST_AUTO_TEST_CASE(closing_an_exit_reroutes_everyone_heading_there) {
     // Everyone near the north wall; north and east close at 3 s, before anyone gets there.
     const std::vector<Vec2> places = grid(5, 15, 6, 3, 2.0);

@@ -384,12 +384,12 @@ bool Navigation::placeArrival(const AgentStore& agents, const std::vector<std::p
 }
 
 bool Navigation::choosesNow(const AgentStore& a, std::size_t i, double t, bool changed) const {
-    // Most agents fail on the first two tests, which read per-agent arrays in order.
+    // Most agents fail on the first two tests, which read per-agent arrays in order. A leaving
+    // agent's journey has leave_by: a journey needs waypoints or leave_by (the loader's rule), and
+    // only with leave_by does an agent go past its last waypoint (advance()).
     const int j = a.journey[i];
     if (j < 0 || (!changed && t + 1e-9 < a.nextChoice[i]) || !leaving(a, i)) return false;
-    const std::size_t js = static_cast<std::size_t>(j);
-    if (changed) return !spec_.venue.journeys[js].leaveBy.empty();
-    return quickestJourney_[js] != 0;
+    return changed || quickestJourney_[static_cast<std::size_t>(j)] != 0;
 }
 
 void Navigation::chooseExit(AgentStore& a, std::size_t i, double t, std::uint64_t seed, bool sampled,
