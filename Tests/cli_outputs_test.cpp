@@ -290,8 +290,10 @@ BOOST_AUTO_TEST_CASE(timing_splits_the_wall_time_into_steps_recording_and_the_re
     BOOST_TEST(safety > 0, r.out);
     BOOST_TEST(metrics > 0, r.out);
     BOOST_TEST(trajectories > 0, r.out);
+    // (No bound on the measurement's share, whose recorder returns at once without lines or
+    // areas: a time of its own is speed, and a preemption of 0.2 ms failed `< 1 %` once under a
+    // parallel ctest.)
     BOOST_TEST(measurement >= 0, r.out);
-    BOOST_TEST(measurement < 0.01 * recording, r.out);  // no lines or areas: it returns at once
     BOOST_TEST(std::abs(safety + metrics + measurement + trajectories - recording) <= 0.01 * recording, r.out);
     // The loop does nothing else with --quiet: the rest is tiny (~0.1 %; the bound leaves room for
     // the odd preemption between two clock readings), so the recording is counted where it runs.

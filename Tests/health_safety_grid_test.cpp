@@ -100,10 +100,35 @@ void follow(SafetyRecorder& r, AgentStore& a, double& t, int records, Shift shif
 
 }  // namespace
 
+namespace {
+/// Cell sizes and radii for which an agent's reach box (floor(2·3R/c) + 1 columns) has 2, 4, 5, 8,
+/// 9, 14 and 22 columns: one vector of four or eight lanes, full or not, and several.
+const std::pair<double, double> kBoxes[] = {{1.0, 0.7}, {0.5, 1.1}, {2.0, 0.4}, {0.25, 0.9},
+                                            {1.0, 1.3}, {1.0, 1.4}, {1.0, 0.6}};
+
+/// The builds of the scatter this CPU runs (0 generic, 1 AVX2, 2 AVX-512).
+std::vector<int> scatterPaths() {
+    const int before = crowdFieldPath();
+    std::vector<int> paths;
+    for (int path = 0; path <= 2; ++path)
+        if (setCrowdFieldPath(path)) paths.push_back(path);
+    setCrowdFieldPath(before);
+    return paths;
+}
+}  // namespace
+
 BOOST_AUTO_TEST_CASE(crowd_field_is_the_gaussian_sum_over_the_agents_within_reach) {
-    // Cell sizes and radii for which the reach box has 3 to 13 columns (every remainder of the
-    // four lanes), against Σ_j e^{−d²/R²} written out with std::exp over the agents within 3R.
-    for (const auto& [cell, R] : {std::pair{1.0, 0.7}, {0.5, 1.1}, {2.0, 0.4}, {0.25, 0.9}, {1.0, 1.3}}) {
+    // Every build of the scatter, for reach boxes of 2 to 22 columns, against Σ_j e^{−d²/R²}
+    // written out with std::exp over the agents within 3R.
+    const int before = crowdFieldPath();
+    for (const auto& [path, box] : [] {
+             std::vector<std::pair<int, std::pair<double, double>>> cases;
+             for (const int path : scatterPaths())
+                 for (const auto& box : kBoxes) cases.emplace_back(path, box);
+             return cases;
+         }()) {
+        const auto [cell, R] = box;
+        BOOST_REQUIRE(setCrowdFieldPath(path));
         const AgentStore a = randomCrowd(300, -3.2, 4.1, 14, 11, 7);
         const CrowdField f = crowdField(a, cell, R);
         BOOST_REQUIRE(f.size() > 0);
@@ -131,12 +156,13 @@ BOOST_AUTO_TEST_CASE(crowd_field_is_the_gaussian_sum_over_the_agents_within_reac
             ++withinReach;
             const double density = sw / (kPi * R * R);
             BOOST_TEST(std::abs(f.density[c] - density) <= 1e-14 * density,
-                       "cell " << cell << " R " << R << ": " << f.density[c] << " vs " << density);
+                       "build " << path << " cell " << cell << " R " << R << ": " << f.density[c] << " vs " << density);
             BOOST_TEST((f.velocity[c] - swv / sw).norm() <= 1e-14,
-                       "cell " << cell << " R " << R << ": " << (f.velocity[c] - swv / sw).norm());
+                       "build " << path << " cell " << cell << " R " << R << ": " << (f.velocity[c] - swv / sw).norm());
         }
         BOOST_TEST(withinReach > f.size() / 2);
     }
+    setCrowdFieldPath(before);
 }
 
 namespace {
@@ -146,15 +172,54 @@ std::uint64_t bitsOf(double v) {
     std::memcpy(&b, &v, sizeof b);
     return b;
 }
+
+/// Entries of two fields of the same crowd that differ in a bit of density or velocity, in their
+/// flag or count, or in their cell (every entry when the sizes differ).
+std::size_t entriesDiffering(const CrowdField& f, const CrowdField& g) {
+    if (f.size() != g.size()) return std::max(f.size(), g.size());
+    std::size_t differ = 0;
+    for (std::size_t c = 0; c < f.size(); ++c)
+        if (f.ix[c] != g.ix[c] || f.iy[c] != g.iy[c] || bitsOf(f.density[c]) != bitsOf(g.density[c]) ||
+            bitsOf(f.velocity[c].x()) != bitsOf(g.velocity[c].x()) ||
+            bitsOf(f.velocity[c].y()) != bitsOf(g.velocity[c].y()) || f.weighted[c] != g.weighted[c] ||
+            f.people[c] != g.people[c])
+            ++differ;
+    return differ;
+}
 }  // namespace
+
+BOOST_AUTO_TEST_CASE(every_build_of_the_scatter_gives_the_same_bits) {
+    // The generic, AVX2 and AVX-512 builds (those this CPU runs) do the same operations lane by
+    // lane without fused multiply-add: the same field to the last bit, for boxes of one vector or
+    // several, full or not, and on 1 and 3 threads (bands that split the boxes).
+    const int before = crowdFieldPath(), threads = omp_get_max_threads();
+    const std::vector<int> paths = scatterPaths();
+    BOOST_TEST_MESSAGE("scatter builds this CPU runs: " << paths.size());
+    for (const int team : {1, 3}) {
+        omp_set_num_threads(team);
+        for (const auto& [cell, R] : kBoxes) {
+            const AgentStore a = randomCrowd(2000, -3.2, 4.1, 30, 40, 11);
+            BOOST_REQUIRE(setCrowdFieldPath(0));
+            const CrowdField generic = crowdField(a, cell, R);
+            BOOST_REQUIRE(generic.size() > 0);
+            for (const int path : paths) {
+                BOOST_REQUIRE(setCrowdFieldPath(path));
+                BOOST_TEST(entriesDiffering(crowdField(a, cell, R), generic) == 0u,
+                           "build " << path << ", cell " << cell << ", R " << R << ", " << team << " threads");
+            }
+        }
+    }
+    omp_set_num_threads(threads);
+    setCrowdFieldPath(before);
+}
 
 BOOST_AUTO_TEST_CASE(crowd_field_has_the_same_bits_for_any_thread_count) {
     // The scatter shares the rows among the threads (each owns a band and adds the agents within
     // reach of it in agent order): every density, velocity, flag and count must be the same bits
-    // with 1 to 4 threads, for reach boxes of 3 to 13 columns and bands that split them. (The
+    // with 1 to 4 threads, for reach boxes of 2 to 22 columns and bands that split them. (The
     // suite runs with CROWDHEALTH_PARALLEL_MIN_AGENTS=1, so even small crowds use the team.)
     const int before = omp_get_max_threads();
-    for (const auto& [cell, R] : {std::pair{1.0, 0.7}, {0.5, 1.1}, {0.25, 0.9}, {2.0, 0.4}}) {
+    for (const auto& [cell, R] : kBoxes) {
         const AgentStore a = randomCrowd(2500, -3.2, 4.1, 30, 40, 5);
         omp_set_num_threads(1);
         const CrowdField one = crowdField(a, cell, R);
@@ -163,14 +228,7 @@ BOOST_AUTO_TEST_CASE(crowd_field_has_the_same_bits_for_any_thread_count) {
             omp_set_num_threads(threads);
             const CrowdField f = crowdField(a, cell, R);
             BOOST_REQUIRE(f.size() == one.size());
-            std::size_t differ = 0;
-            for (std::size_t c = 0; c < f.size(); ++c)
-                if (f.ix[c] != one.ix[c] || f.iy[c] != one.iy[c] || bitsOf(f.density[c]) != bitsOf(one.density[c]) ||
-                    bitsOf(f.velocity[c].x()) != bitsOf(one.velocity[c].x()) ||
-                    bitsOf(f.velocity[c].y()) != bitsOf(one.velocity[c].y()) || f.weighted[c] != one.weighted[c] ||
-                    f.people[c] != one.people[c])
-                    ++differ;
-            BOOST_TEST(differ == 0u, "cell " << cell << " R " << R << ", " << threads << " threads");
+            BOOST_TEST(entriesDiffering(f, one) == 0u, "cell " << cell << " R " << R << ", " << threads << " threads");
             BOOST_TEST(f.cellOfAgent == one.cellOfAgent);
         }
     }

@@ -325,6 +325,48 @@ BOOST_AUTO_TEST_CASE(heatmap_worst_los_is_the_worst_level_held_for_min_duration)
     BOOST_TEST(brief == 'A');  // nothing held for 1 s: the cluster was there 0.5 s, then nobody
 }
 
+namespace {
+/// The worst_los column of heatmap.csv at the cell whose centre is (x, y) (written as in the file).
+char worstLosAt(const std::string& csv, const std::string& x, const std::string& y) {
+    const std::size_t at = csv.find("\n" + x + "," + y + ",");
+    BOOST_REQUIRE(at != std::string::npos);
+    const std::size_t end = csv.find('\n', at + 1);
+    return csv[end - 1];
+}
+}  // namespace
+
+BOOST_AUTO_TEST_CASE(heatmap_worst_los_restarts_after_a_record_that_missed_the_cell) {
+    // The tight cluster for 0.7 s, gone for one record (nobody within reach: the cell is not
+    // evaluated), back for 0.7 s: neither spell lasts min_duration (1 s), so no level of
+    // service held, though the two together would have.
+    std::vector<Vec2> cluster;
+    for (int j = 0; j < 6; ++j)
+        for (int i = 0; i < 6; ++i) cluster.push_back(Vec2(10.1 + 0.45 * i, 10.1 + 0.45 * j));
+    SafetyRecorder rec;
+    const AgentStore dense = standing(cluster), empty;
+    for (int step = 0; step <= 14; ++step) rec.recordCrowd(step == 7 ? empty : dense, 0.1 * step);
+    BOOST_TEST(worstLosAt(rec.heatmapCsv(), "11.5", "11.5") == 'A');
+    // Without the gap the same 1.4 s make level F.
+    SafetyRecorder steady;
+    for (int step = 0; step <= 14; ++step) steady.recordCrowd(dense, 0.1 * step);
+    BOOST_TEST(worstLosAt(steady.heatmapCsv(), "11.5", "11.5") == 'F');
+}
+
+BOOST_AUTO_TEST_CASE(heatmap_worst_los_with_no_min_duration_is_the_worst_level_reached) {
+    // min_duration 0: one record is enough. One person standing alone makes a local density of
+    // about 1/(πR²)·e^{−d²/R²} at the centre of their cell, 0.65 P/m² for R = 0.7 m and d ≈ 0
+    // (level C: 0.43–0.72 P/m²), so the worst level there is C, not worse.
+    SafetyThresholds t;
+    t.minDuration = 0;
+    SafetyRecorder rec(t);
+    const AgentStore one = standing({Vec2(5.5, 5.5)});
+    for (int step = 0; step <= 3; ++step) rec.recordCrowd(one, 0.1 * step);
+    BOOST_TEST(fruinLevel(1 / (kPi * 0.49)) == 'C');
+    BOOST_TEST(worstLosAt(rec.heatmapCsv(), "5.5", "5.5") == 'C');
+    // The cell beside it (centre 1 m away: 0.65·e^{−1/0.49} = 0.085 P/m²) is level A.
+    BOOST_TEST(worstLosAt(rec.heatmapCsv(), "6.5", "5.5") == 'A');
+}
+
 BOOST_AUTO_TEST_CASE(an_area_empty_part_of_the_interval_reports_the_speed_of_those_present) {
     // Someone walks at 1.2 m/s through the box during one record of three: the row's speed is
     // theirs (1.2 m/s), not lowered by the empty records; the density is the mean (1/3 of 1/6).

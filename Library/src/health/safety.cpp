@@ -1,6 +1,7 @@
 // CrowdHealth — crowd measures on a grid, heat map and safety verdict (see safety.h).
 #include "crowdhealth/health/safety.h"
 
+#include "crowdhealth/core/cpu_features.h"
 #include "crowdhealth/core/grid.h"
 #include "crowdhealth/core/parallel.h"
 #include "crowdhealth/core/simd.h"
@@ -8,6 +9,7 @@
 #include "crowdhealth/io/output.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cctype>
 #include <cmath>
 #include <cstring>
@@ -27,105 +29,177 @@ int cellIndex(double v, double c) { return floorToInt(v / c); }
 
 std::string fmt(double v, int digits = 3) { return formatNumber(v, digits); }
 
-/// e[l] = e^{s·d2[l]} for l < n (n a multiple of simd::kLanes, s·d2 ≤ 0), simd::expNonPositive
-/// four at a time: the crowd field's Gaussian weights. Lane by lane, so a weight's bits do not
-/// depend on where it sits in the buffer.
-[[gnu::always_inline]] inline void gaussianWeights(const double* d2, double* e, std::size_t n, double s) {
-    for (std::size_t l = 0; l < n; l += simd::kLanes) {
-        simd::DV v;
-        std::memcpy(&v, d2 + l, sizeof v);
-        v = simd::expNonPositive(v * simd::splat(s));
-        std::memcpy(e + l, &v, sizeof v);
-    }
-}
-
 /// The dense rectangle of the crowd field as the scatter sees it: columns x0 … x0 + nx − 1, rows
-/// y0 … y0 + ny − 1; the sums of row y start at (y − y0)·stride, stride = nx + kLanes (the last
-/// vector of a row may spill into its own padding, never into the next row, which another thread
-/// may own).
+/// y0 … y0 + ny − 1. The sums of cell (x, y) sit at (y − y0)·stride + pad + (x − x0): each row has
+/// `pad` slots of padding before its columns and stride − pad − nx after them, enough for every
+/// agent's whole reach box (its columns beyond the rectangle land in its own row's padding, never
+/// in another row, which another thread may own; the padding is never read).
 struct ScatterGrid {
     int x0 = 0, y0 = 0, nx = 0, ny = 0;
-    std::size_t stride = 0;
-    double cellSize = 1, invCell = 1, reach = 0, reach2 = 0, negInvR2 = 0;
+    std::size_t stride = 0, pad = 0;
+    /// Columns (and rows) of an agent's reach box: every cell centre within reach of an agent lies
+    /// in the box of `box` columns from ceil(cx − rc) and `box` rows from ceil(cy − rc), where
+    /// (cx, cy) is its place in cell units less ½ and rc the reach in cells (with a margin).
+    int box = 0;
+    double cellSize = 1, invCell = 1, reachCells = 0, reach2 = 0, negInvR2 = 0;
 };
+
+/// d = p − (k + ½)·c for the cells k = k0 … k0 + W − 1 of a row (or column), its square dd and
+/// e = e^{dd·s} (s = −1/R²; simd::expNonPositive). `half` holds l + ½ in lane l.
+template <class V>
+[[gnu::always_inline]] inline void boxWeights(double p, int k0, V half, V c, V s, V& dd, V& e) {
+    const V d = simd::splatAs<V>(p) - (simd::splatAs<V>(static_cast<double>(k0)) + half) * c;
+    dd = d * d;
+    e = simd::expNonPositive(dd * s);
+}
+
+/// The weights of W cells of a row added to their sums at `at`: w = wx·wy where xx + yy ≤ r2, +0
+/// elsewhere; w·v is ±0 where w is +0, and adding it leaves the sum as it was.
+template <class V>
+[[gnu::always_inline]] inline void addWeights(double* sw, double* swx, double* swy, std::size_t at, V xx, V wx, V yy,
+                                              V wy, V r2, V vx, V vy) {
+    const V w = simd::sel(simd::le(xx + yy, r2), wx * wy, V{});
+    V sa, sb, sd;
+    std::memcpy(&sa, sw + at, sizeof sa);
+    std::memcpy(&sb, swx + at, sizeof sb);
+    std::memcpy(&sd, swy + at, sizeof sd);
+    sa += w;
+    sb += w * vx;
+    sd += w * vy;
+    std::memcpy(sw + at, &sa, sizeof sa);
+    std::memcpy(swx + at, &sb, sizeof sb);
+    std::memcpy(swy + at, &sd, sizeof sd);
+}
 
 /// Adds the Gaussian weights of agents [0, n) to the cells of rows [rowLo, rowHi] (a band; every
 /// agent within reach of it, in agent order): sw += w, swx += w·v.x, swy += w·v.y, where
-/// w = e^{−dx²/R²}·e^{−dy²/R²} for the centres with dx² + dy² ≤ reach². Each cell's sums are those
-/// of the agents in order whatever the bands, so the bits do not depend on how the rows are shared.
-/// Compiled twice, like SocialForcesAvoidance's pair loop (one AVX2 register per four doubles where
-/// the CPU has AVX2, two SSE2 registers otherwise, chosen when the program starts): the same
-/// operations without fused multiply-add, so both give the same bits.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-__attribute__((target_clones("avx2", "default")))
-#endif
-void scatterRows(const Vec2* pos, const Vec2* vel, std::size_t n, const ScatterGrid& g, int rowLo, int rowHi,
-                 double* sw, double* swx, double* swy) {
-    using simd::DV;
-    using simd::IV;
-    constexpr int L = simd::kLanes;
-    // The columns and rows whose centre may lie within reach: |p − (k + ½)·c| ≤ reach, found in
-    // units of cells with a margin of 1e-6 cells for rounding (the disc test below decides).
-    const double rc = g.reach * g.invCell + 1e-6;
-    const int box = static_cast<int>(std::ceil(2 * rc)) + 1;
-    std::vector<double> d2(static_cast<std::size_t>(2 * box + 2 * L), 0.0), e(d2.size(), 0.0);
-    const DV r2 = simd::splat(g.reach2), zero = simd::splat(0.0);
-    const IV laneIndex = {0, 1, 2, 3};
-    const int xLast = g.x0 + g.nx - 1;
+/// w = e^{−dx²/R²}·e^{−dy²/R²} for the centres with dx² + dy² ≤ reach², and +0 elsewhere in the
+/// box (which leaves a sum as it was: a sum is never −0, it starts at +0). Each cell's sums are
+/// those of the agents in order whatever the bands, so the bits do not depend on how the rows are
+/// shared. The box has the same size for every agent (g.box columns in whole vectors of V, g.box
+/// rows), so the loops take no branch that depends on where an agent stands (a box of 4 or 5
+/// columns and rows at the default 1-m cells, taken cell by cell with the trip counts and a skip
+/// per row, mispredicted: issue 20). The exponentials of the columns and rows are computed in
+/// registers, lane by lane, so a weight's bits do not depend on its lane.
+template <class V>
+[[gnu::always_inline]] inline void scatterBoxes(const Vec2* pos, const Vec2* vel, std::size_t n, const ScatterGrid& g,
+                                                int rowLo, int rowHi, double* sw, double* swx, double* swy) {
+    constexpr int W = static_cast<int>(sizeof(V) / sizeof(double));
+    // The grid's numbers in locals: the sums are written through memcpy, which may alias anything,
+    // so fields read through `g` would be loaded again after every store.
+    const int B = g.box, chunks = (B + W - 1) / W, x0 = g.x0, y0 = g.y0;
+    const std::size_t stride = g.stride, pad = g.pad;
+    const double invCell = g.invCell, reachCells = g.reachCells;
+    // Per agent: the columns' d² and weights, chunk by chunk, and the rows'. (Arrays of doubles
+    // loaded by memcpy: a std::vector of 64-byte vectors is not 64-byte aligned.)
+    std::vector<double> buffer(4 * static_cast<std::size_t>(chunks * W));
+    double* const dx2 = buffer.data();
+    double* const ex = dx2 + chunks * W;
+    double* const dy2 = ex + chunks * W;
+    double* const ey = dy2 + chunks * W;
+    V iota;
+    for (int l = 0; l < W; ++l) iota[l] = l + 0.5;  // lane l: column xa + l, its centre at + ½
+    const V r2 = simd::splatAs<V>(g.reach2), s = simd::splatAs<V>(g.negInvR2), c = simd::splatAs<V>(g.cellSize);
     for (std::size_t i = 0; i < n; ++i) {
         const Vec2 p = pos[i];
-        const double cy = p.y() * g.invCell - 0.5;
-        const int ya = std::max(rowLo, static_cast<int>(std::ceil(cy - rc)));
-        const int yb = std::min(rowHi, static_cast<int>(std::floor(cy + rc)));
-        if (ya > yb) continue;
-        const double cx = p.x() * g.invCell - 0.5;
-        const int xa = std::max(g.x0, static_cast<int>(std::ceil(cx - rc)));
-        const int xb = std::min(xLast, static_cast<int>(std::floor(cx + rc)));
-        if (xa > xb) continue;
-        const int mx = xb - xa + 1, my = yb - ya + 1;
-        // d² of the columns, then of the rows, in one buffer: one call of the exponential for both.
-        for (int k = 0; k < mx; ++k) {
-            const double d = p.x() - (xa + k + 0.5) * g.cellSize;
-            d2[static_cast<std::size_t>(k)] = d * d;
+        const int ya = static_cast<int>(std::ceil(p.y() * invCell - 0.5 - reachCells));
+        if (ya > rowHi || ya + B - 1 < rowLo) continue;
+        const int xa = static_cast<int>(std::ceil(p.x() * invCell - 0.5 - reachCells));
+        const V vx = simd::splatAs<V>(vel[i].x()), vy = simd::splatAs<V>(vel[i].y());
+        const int r0 = std::max(ya, rowLo), r1 = std::min(ya + B - 1, rowHi);
+        const std::size_t first = static_cast<std::size_t>(r0 - y0) * stride + pad +
+                                  static_cast<std::size_t>(static_cast<std::ptrdiff_t>(xa) - x0);
+        if (chunks == 1) {  // the default cells and radius: the box's columns in one vector, kept in registers
+            V xx, wx, yy, wy;
+            boxWeights(p.x(), xa, iota, c, s, xx, wx);
+            boxWeights(p.y(), ya, iota, c, s, yy, wy);
+            std::size_t at = first;
+            for (int r = r0; r <= r1; ++r, at += stride) {
+                // Row r's d² and weight in every lane, taken from the registers (a load from the
+                // vector just stored waited for the store).
+                const simd::MaskOf<V> lane = simd::MaskOf<V>{} + (r - ya);
+                addWeights(sw, swx, swy, at, xx, wx, __builtin_shuffle(yy, lane), __builtin_shuffle(wy, lane), r2, vx,
+                           vy);
+            }
+            continue;
         }
-        for (int k = 0; k < my; ++k) {
-            const double d = p.y() - (ya + k + 0.5) * g.cellSize;
-            d2[static_cast<std::size_t>(mx + k)] = d * d;
+        for (int k = 0; k < chunks; ++k) {
+            V xx, wx, yy, wy;
+            boxWeights(p.x(), xa + k * W, iota, c, s, xx, wx);
+            boxWeights(p.y(), ya + k * W, iota, c, s, yy, wy);
+            std::memcpy(dx2 + k * W, &xx, sizeof xx);
+            std::memcpy(ex + k * W, &wx, sizeof wx);
+            std::memcpy(dy2 + k * W, &yy, sizeof yy);
+            std::memcpy(ey + k * W, &wy, sizeof wy);
         }
-        gaussianWeights(d2.data(), e.data(), static_cast<std::size_t>((mx + my + L - 1) / L * L), g.negInvR2);
-        const double* const dx2 = d2.data();
-        const double* const ex = e.data();
-        const DV vx = simd::splat(vel[i].x()), vy = simd::splat(vel[i].y());
-        for (int ky = 0; ky < my; ++ky) {
-            const double yy = d2[static_cast<std::size_t>(mx + ky)];
-            if (yy > g.reach2) continue;
-            const DV dyy = simd::splat(yy), wy = simd::splat(e[static_cast<std::size_t>(mx + ky)]);
-            const std::size_t row =
-                static_cast<std::size_t>(ya + ky - g.y0) * g.stride + static_cast<std::size_t>(xa - g.x0);
-            // Four cells at a time; a lane past the row's end or beyond reach adds +0, which leaves
-            // every sum as it was (a sum is never −0: it starts at +0), so the bits are those of
-            // skipping it.
-            for (int kx = 0; kx < mx; kx += L) {
-                DV dx, w, s, sx, sy;
-                std::memcpy(&dx, dx2 + kx, sizeof dx);
-                std::memcpy(&w, ex + kx, sizeof w);
-                const IV in = (dx + dyy <= r2) & (laneIndex + kx < mx);
-                w = simd::select(in, w * wy, zero);
-                double* const a = sw + row + static_cast<std::size_t>(kx);
-                double* const b = swx + row + static_cast<std::size_t>(kx);
-                double* const c = swy + row + static_cast<std::size_t>(kx);
-                std::memcpy(&s, a, sizeof s);
-                std::memcpy(&sx, b, sizeof sx);
-                std::memcpy(&sy, c, sizeof sy);
-                s += w;
-                sx += simd::select(in, w * vx, zero);
-                sy += simd::select(in, w * vy, zero);
-                std::memcpy(a, &s, sizeof s);
-                std::memcpy(b, &sx, sizeof sx);
-                std::memcpy(c, &sy, sizeof sy);
+        std::size_t at = first;
+        for (int r = r0; r <= r1; ++r, at += stride) {
+            const V dyy = simd::splatAs<V>(dy2[r - ya]), wy = simd::splatAs<V>(ey[r - ya]);
+            for (int k = 0; k < chunks; ++k) {
+                V xx, wx;
+                std::memcpy(&xx, dx2 + k * W, sizeof xx);
+                std::memcpy(&wx, ex + k * W, sizeof wx);
+                addWeights(sw, swx, swy, at + static_cast<std::size_t>(k * W), xx, wx, dyy, wy, r2, vx, vy);
             }
         }
     }
+}
+
+// Three builds of the scatter, chosen when the program starts (crowdFieldPath): four lanes in two
+// SSE2 registers (every x86-64 CPU and others), four in one AVX2 register, eight in one AVX-512
+// register. The same operations lane by lane and no fused multiply-add (fp-contract=off: GCC would
+// contract a·b + c where the target has FMA, as AVX-512F does), so all give the same bits
+// (Tests/health_safety_grid_test.cpp compares them).
+#if defined(__GNUC__) && !defined(__clang__)
+#define CH_FIELD_NO_CONTRACT __attribute__((optimize("fp-contract=off")))
+#else
+#define CH_FIELD_NO_CONTRACT
+#endif
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define CH_FIELD_X86 1
+#endif
+
+CH_FIELD_NO_CONTRACT
+void scatterGeneric(const Vec2* pos, const Vec2* vel, std::size_t n, const ScatterGrid& g, int rowLo, int rowHi,
+                    double* sw, double* swx, double* swy) {
+    scatterBoxes<simd::DV>(pos, vel, n, g, rowLo, rowHi, sw, swx, swy);
+}
+
+#ifdef CH_FIELD_X86
+__attribute__((target("avx2"))) CH_FIELD_NO_CONTRACT
+void scatterAvx2(const Vec2* pos, const Vec2* vel, std::size_t n, const ScatterGrid& g, int rowLo, int rowHi,
+                 double* sw, double* swx, double* swy) {
+    scatterBoxes<simd::DV>(pos, vel, n, g, rowLo, rowHi, sw, swx, swy);
+}
+
+__attribute__((target("avx512f,avx512dq,avx512vl"))) CH_FIELD_NO_CONTRACT
+void scatterAvx512(const Vec2* pos, const Vec2* vel, std::size_t n, const ScatterGrid& g, int rowLo, int rowHi,
+                   double* sw, double* swx, double* swy) {
+    scatterBoxes<simd::DV8>(pos, vel, n, g, rowLo, rowHi, sw, swx, swy);
+}
+#endif
+
+bool scatterRuns(int path) {
+#ifdef CH_FIELD_X86
+    if (path == 1) return cpu::hasAvx2();
+    if (path == 2) return cpu::hasAvx512();
+#endif
+    return path == 0;
+}
+
+/// The scatter's build in use: the best this CPU runs, found once when the program starts.
+std::atomic<int> gScatterPath{scatterRuns(2) ? 2 : scatterRuns(1) ? 1 : 0};
+
+void scatterRows(const Vec2* pos, const Vec2* vel, std::size_t n, const ScatterGrid& g, int rowLo, int rowHi,
+                 double* sw, double* swx, double* swy) {
+#ifdef CH_FIELD_X86
+    switch (gScatterPath.load(std::memory_order_relaxed)) {
+    case 2: return scatterAvx512(pos, vel, n, g, rowLo, rowHi, sw, swx, swy);
+    case 1: return scatterAvx2(pos, vel, n, g, rowLo, rowHi, sw, swx, swy);
+    default: break;
+    }
+#endif
+    scatterGeneric(pos, vel, n, g, rowLo, rowHi, sw, swx, swy);
 }
 }  // namespace
 
@@ -276,13 +350,15 @@ CrowdField crowdField(const AgentStore& agents, double cellSize, double R) {
     if (spanX * spanY <= kMaxDenseCells) {
         const int ix0 = cellIndex(xmin, cellSize) - 1, iy0 = cellIndex(ymin, cellSize) - 1;
         const int nx = static_cast<int>(spanX), ny = static_cast<int>(spanY);
-        f.ix.reserve(static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny));
-        f.iy.reserve(f.ix.capacity());
-        for (int y = 0; y < ny; ++y)
+        f.ix.resize(static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny));
+        f.iy.resize(f.ix.size());
+        for (int y = 0; y < ny; ++y) {
+            const std::size_t row = static_cast<std::size_t>(y) * static_cast<std::size_t>(nx);
             for (int x = 0; x < nx; ++x) {
-                f.ix.push_back(ix0 + x);
-                f.iy.push_back(iy0 + y);
+                f.ix[row + static_cast<std::size_t>(x)] = ix0 + x;
+                f.iy[row + static_cast<std::size_t>(x)] = iy0 + y;
             }
+        }
     } else {
         const int k = static_cast<int>(std::ceil(reach / cellSize));
         std::vector<std::uint64_t> keys;
@@ -336,10 +412,17 @@ CrowdField crowdField(const AgentStore& agents, double cellSize, double R) {
         g.y0 = f.iy.front();
         g.nx = nx;
         g.ny = f.iy.back() - g.y0 + 1;
-        g.stride = static_cast<std::size_t>(nx) + simd::kLanes;
         g.cellSize = cellSize;
         g.invCell = 1.0 / cellSize;
-        g.reach = reach;
+        // The reach in cells with a margin of 1e-6 cells for rounding (the disc test decides which
+        // cells count): the centres within reach of an agent lie in floor(2·rc) + 1 columns from
+        // ceil(cx − rc), whose start is at least x0 − ceil(rc) (every agent lies in a column of
+        // the rectangle, which has a margin of one) and whose vectors end at most box + 7 columns
+        // past it.
+        g.reachCells = reach * g.invCell + 1e-6;
+        g.box = static_cast<int>(std::floor(2 * g.reachCells)) + 1;
+        g.pad = static_cast<std::size_t>(std::ceil(g.reachCells)) + 1;
+        g.stride = g.pad + static_cast<std::size_t>(nx) + static_cast<std::size_t>(g.box) + 8;
         g.reach2 = reach * reach;
         g.negInvR2 = -invR2;
         const std::size_t sumCells = static_cast<std::size_t>(g.ny) * g.stride;
@@ -354,16 +437,22 @@ CrowdField crowdField(const AgentStore& agents, double cellSize, double R) {
             const int hi = g.y0 + static_cast<int>(static_cast<long>(g.ny) * (t + 1) / bands) - 1;
             scatterRows(agents.pos.data(), agents.vel.data(), n, g, lo, hi, sw.data(), swx.data(), swy.data());
         }
+        // Without a branch per cell (so that the loop vectorises): a cell with no weight keeps
+        // density 0, velocity (0, 0) and weighted 0.
         for (int y = 0; y < g.ny; ++y) {
-            const std::size_t from = static_cast<std::size_t>(y) * g.stride;
+            const double* const a = sw.data() + static_cast<std::size_t>(y) * g.stride + g.pad;
+            const double* const b = swx.data() + static_cast<std::size_t>(y) * g.stride + g.pad;
+            const double* const c = swy.data() + static_cast<std::size_t>(y) * g.stride + g.pad;
             const std::size_t to = static_cast<std::size_t>(y) * static_cast<std::size_t>(nx);
+            double* const density = f.density.data() + to;
+            Vec2* const velocity = f.velocity.data() + to;
+            unsigned char* const weighted = f.weighted.data() + to;
             for (int x = 0; x < nx; ++x) {
-                const double w = sw[from + static_cast<std::size_t>(x)];
-                if (!(w > 0)) continue;
-                const std::size_t c = to + static_cast<std::size_t>(x);
-                f.density[c] = norm * w;
-                f.velocity[c] = Vec2(swx[from + static_cast<std::size_t>(x)], swy[from + static_cast<std::size_t>(x)]) / w;
-                f.weighted[c] = 1;
+                const double w = a[x];
+                const bool in = w > 0;
+                density[x] = in ? norm * w : 0.0;
+                velocity[x] = in ? Vec2(b[x] / w, c[x] / w) : Vec2(0, 0);
+                weighted[x] = in;
             }
         }
         return f;
@@ -389,6 +478,14 @@ CrowdField crowdField(const AgentStore& agents, double cellSize, double R) {
         f.weighted[c] = 1;
     }
     return f;
+}
+
+int crowdFieldPath() { return gScatterPath.load(); }
+
+bool setCrowdFieldPath(int path) {
+    if (!scatterRuns(path)) return false;
+    gScatterPath.store(path);
+    return true;
 }
 
 int verdictRank(const std::string& level) {
@@ -578,36 +675,53 @@ void SafetyRecorder::recordAt(const AgentStore& a, double t, const HealthLayer* 
         std::size_t people[kConditions] = {0, 0, 0, 0, 0};
         double maxPressure = 0;
     };
-    auto evaluate = [&](Cell& cell, std::size_t k, Tally& tally) {
-        cell.maxDensity = std::max(cell.maxDensity, f.density[k]);
-        if (health != nullptr) cell.maxContact = std::max(cell.maxContact, contact[k]);
+    // The field's columns and the thresholds in locals, and each cell worked on in a local copy:
+    // the cell's byte (worstLos) may alias anything, so values read through `f`, `t_` or the cell
+    // would otherwise be loaded again after every store to it (issue 20).
+    const double* const density = f.density.data();
+    const Vec2* const velocity = f.velocity.data();
+    const unsigned char* const weighted = f.weighted.data();
+    const int* const peopleIn = f.people.data();
+    const double* const contactIn = contact.data();
+    const double minDuration = t_.minDuration, pressureCritical = t_.crowdPressureCritical,
+                 densityCaution = t_.densityCaution;
+    auto evaluate = [&, density, velocity, weighted, peopleIn, contactIn](Cell& into, std::size_t k, Tally& tally) {
+        Cell cell = into;
+        const double d = density[k];
+        cell.maxDensity = std::max(cell.maxDensity, d);
+        if (health != nullptr) cell.maxContact = std::max(cell.maxContact, contactIn[k]);
         // Fruin's levels: how long each has held here without a break (a cell missed by a record
-        // — nobody within reach — starts again).
+        // — nobody within reach — starts again). The runs never grow with the level (each level's
+        // run holds whenever a worse one's does), so the levels that held for minDuration are
+        // B … B + m − 1, and m counts them.
         {
             const bool continues = cell.losAt == previous && dt > 0;
-            const int level = fruinIndex(f.density[k]);  // 0 = A … 5 = F
+            const int level = fruinIndex(d);  // 0 = A … 5 = F
+            int lasted = 0;
             for (int l = 1; l <= 5; ++l) {
-                double& run = cell.losRun[l - 1];
-                run = level >= l ? (continues ? run + dt : 0.0) : 0.0;
-                if (level >= l && run >= t_.minDuration) cell.worstLos = std::max(cell.worstLos, static_cast<char>('A' + l));
+                const bool on = level >= l;
+                const double run = on && continues ? cell.losRun[l - 1] + dt : 0.0;
+                cell.losRun[l - 1] = run;
+                lasted += on && run >= minDuration;
             }
+            cell.worstLos = std::max(cell.worstLos, static_cast<char>('A' + lasted));
             cell.losAt = t;
         }
         for (int l = 0; l < 3; ++l)
-            if (f.density[k] > levels[l]) {
+            if (d > levels[l]) {
                 cell.seconds[l] += dt;
                 tally.held[l] = true;
-                tally.people[l] += static_cast<std::size_t>(f.people[k]);
+                tally.people[l] += static_cast<std::size_t>(peopleIn[k]);
             }
         // Crowd pressure: the variance in time of the local velocity at this place, times
         // the local density (both averaged over the window). A cell with no agent within
         // reach has no local velocity; its averages restart when agents come back.
         double pressure = 0;
-        if (f.weighted[k]) {
-            const Vec2& v = f.velocity[k];
+        if (weighted[k]) {
+            const Vec2 v = velocity[k];
             const bool continues = cell.sampledAt == previous && dt > 0;
             const double w = continues ? alpha : 1.0;
-            cell.meanDensity += w * (f.density[k] - cell.meanDensity);
+            cell.meanDensity += w * (d - cell.meanDensity);
             cell.meanVelocity += w * (v - cell.meanVelocity);
             cell.meanSquaredSpeed += w * (v.squaredNorm() - cell.meanSquaredSpeed);
             cell.sampledAt = t;
@@ -619,11 +733,12 @@ void SafetyRecorder::recordAt(const AgentStore& a, double t, const HealthLayer* 
         // low density (crossings, counter-flows), the local velocity also varies in time, so
         // the pressure counts only where the density is above Fruin's level F as well
         // (docs/crowd-health.md shows a sparse crossing that needs this gate).
-        if (pressure > t_.crowdPressureCritical && cell.meanDensity > t_.densityCaution) {
+        if (pressure > pressureCritical && cell.meanDensity > densityCaution) {
             cell.seconds[Pressure] += dt;
             tally.held[Pressure] = true;
-            tally.people[Pressure] += static_cast<std::size_t>(f.people[k]);
+            tally.people[Pressure] += static_cast<std::size_t>(peopleIn[k]);
         }
+        into = cell;
     };
     auto merge = [&](const Tally& tally) {
         for (int c = 0; c < kConditions; ++c) {
@@ -634,19 +749,29 @@ void SafetyRecorder::recordAt(const AgentStore& a, double t, const HealthLayer* 
     };
     if (flat) {
         const long count = static_cast<long>(f.size());
+        const int* const ix = f.ix.data();
+        const int* const iy = f.iy.data();
 #pragma omp parallel if (parallelCheapLoop(f.size()))
         {
             Tally tally;
+            Tile* tile = nullptr;
+            int tileX = 0, tileY = 0;
 #pragma omp for schedule(static)
             for (long kk = 0; kk < count; ++kk) {
                 const std::size_t k = static_cast<std::size_t>(kk);
-                Tile& tile = store_[tileSlot(f.ix[k], f.iy[k])];
-                const int c = inTile(f.ix[k], f.iy[k]);
-                tile.present[c] = 1;
-                // The cells of a row follow each other; fetch those a few entries on.
-                if (kk + 4 < count)
-                    __builtin_prefetch(&store_[tileSlot(f.ix[k + 4], f.iy[k + 4])].cells[inTile(f.ix[k + 4], f.iy[k + 4])]);
-                evaluate(tile.cells[c], k, tally);
+                const int x = ix[k], y = iy[k];
+                // The tile of the last entry while the entries stay in it (a row of the field
+                // crosses a tile in kTileSide entries).
+                if (tile == nullptr || ((x ^ tileX) | (y ^ tileY)) >> kTileBits != 0) {
+                    tile = &store_[tileSlot(x, y)];
+                    tileX = x, tileY = y;
+                }
+                const int c = inTile(x, y);
+                tile->present[c] = 1;
+                // The cells of a tile's row follow each other; fetch the one four on (past the
+                // row's end a prefetch is wasted, never wrong).
+                __builtin_prefetch(&tile->cells[c] + 4);
+                evaluate(tile->cells[c], k, tally);
             }
 #pragma omp critical(ch_safety_record_merge)
             merge(tally);
