@@ -18,7 +18,7 @@
 
 #include <omp.h>
 
-// simd::DV (four doubles) passes by value between inlined helpers only: no call crosses an ABI.
+// simd's vectors pass by value between inlined helpers only: no call crosses an ABI.
 #pragma GCC diagnostic ignored "-Wpsabi"
 
 namespace ch {
@@ -74,13 +74,15 @@ template <class V>
 /// Adds the Gaussian weights of agents [0, n) to the cells of rows [rowLo, rowHi] (a band; every
 /// agent within reach of it, in agent order): sw += w, swx += w·v.x, swy += w·v.y, where
 /// w = e^{−dx²/R²}·e^{−dy²/R²} for the centres with dx² + dy² ≤ reach², and +0 elsewhere in the
-/// box (which leaves a sum as it was: a sum is never −0, it starts at +0). Each cell's sums are
-/// those of the agents in order whatever the bands, so the bits do not depend on how the rows are
-/// shared. The box has the same size for every agent (g.box columns in whole vectors of V, g.box
-/// rows), so the loops take no branch that depends on where an agent stands (a box of 4 or 5
-/// columns and rows at the default 1-m cells, taken cell by cell with the trip counts and a skip
-/// per row, mispredicted: issue 20). The exponentials of the columns and rows are computed in
-/// registers, lane by lane, so a weight's bits do not depend on its lane.
+/// vectors written (which leaves a sum as it was: a sum is never −0, it starts at +0). Each cell's
+/// sums are those of the agents in order whatever the bands, so the bits do not depend on how the
+/// rows are shared, nor on the width of V. An agent adds to its rows within reach, each in whole
+/// vectors from its first column within reach: one vector when g.box columns fit in V (the
+/// default 1-m cells in eight lanes), its d² and weights then kept in registers; otherwise the
+/// vectors of its own columns within reach (4 or 5 at the default cells: one vector of four lanes
+/// for 4 in 5 agents). The exponentials of the columns and rows are computed lane by lane, so a
+/// weight's bits do not depend on its lane. (Until issue 20's eighteenth round the columns went
+/// four at a time from a buffer of d² and weights, with a skip per row: 15–30 % slower.)
 template <class V>
 [[gnu::always_inline]] inline void scatterBoxes(const Vec2* pos, const Vec2* vel, std::size_t n, const ScatterGrid& g,
                                                 int rowLo, int rowHi, double* sw, double* swx, double* swy) {
@@ -102,14 +104,18 @@ template <class V>
     const V r2 = simd::splatAs<V>(g.reach2), s = simd::splatAs<V>(g.negInvR2), c = simd::splatAs<V>(g.cellSize);
     for (std::size_t i = 0; i < n; ++i) {
         const Vec2 p = pos[i];
-        const int ya = static_cast<int>(std::ceil(p.y() * invCell - 0.5 - reachCells));
-        if (ya > rowHi || ya + B - 1 < rowLo) continue;
-        const int xa = static_cast<int>(std::ceil(p.x() * invCell - 0.5 - reachCells));
+        // The rows and columns whose centre may lie within reach: |p − (k + ½)·c| ≤ reach, in
+        // units of cells (the disc test decides): ya … yb, xa … xb, at most B of each.
+        const double cy = p.y() * invCell - 0.5;
+        const int ya = static_cast<int>(std::ceil(cy - reachCells)), yb = static_cast<int>(std::floor(cy + reachCells));
+        if (ya > rowHi || yb < rowLo) continue;
+        const double cx = p.x() * invCell - 0.5;
+        const int xa = static_cast<int>(std::ceil(cx - reachCells));
         const V vx = simd::splatAs<V>(vel[i].x()), vy = simd::splatAs<V>(vel[i].y());
-        const int r0 = std::max(ya, rowLo), r1 = std::min(ya + B - 1, rowHi);
+        const int r0 = std::max(ya, rowLo), r1 = std::min(yb, rowHi);
         const std::size_t first = static_cast<std::size_t>(r0 - y0) * stride + pad +
                                   static_cast<std::size_t>(static_cast<std::ptrdiff_t>(xa) - x0);
-        if (chunks == 1) {  // the default cells and radius: the box's columns in one vector, kept in registers
+        if (chunks == 1) {  // the box's columns in one vector, kept in registers
             V xx, wx, yy, wy;
             boxWeights(p.x(), xa, iota, c, s, xx, wx);
             boxWeights(p.y(), ya, iota, c, s, yy, wy);
@@ -123,19 +129,25 @@ template <class V>
             }
             continue;
         }
-        for (int k = 0; k < chunks; ++k) {
-            V xx, wx, yy, wy;
+        // Several vectors a row: those of this agent's columns within reach.
+        const int xb = static_cast<int>(std::floor(cx + reachCells));
+        const int columnChunks = (xb - xa + W) / W, rowChunks = (yb - ya + W) / W;
+        for (int k = 0; k < columnChunks; ++k) {
+            V xx, wx;
             boxWeights(p.x(), xa + k * W, iota, c, s, xx, wx);
-            boxWeights(p.y(), ya + k * W, iota, c, s, yy, wy);
             std::memcpy(dx2 + k * W, &xx, sizeof xx);
             std::memcpy(ex + k * W, &wx, sizeof wx);
+        }
+        for (int k = 0; k < rowChunks; ++k) {
+            V yy, wy;
+            boxWeights(p.y(), ya + k * W, iota, c, s, yy, wy);
             std::memcpy(dy2 + k * W, &yy, sizeof yy);
             std::memcpy(ey + k * W, &wy, sizeof wy);
         }
         std::size_t at = first;
         for (int r = r0; r <= r1; ++r, at += stride) {
             const V dyy = simd::splatAs<V>(dy2[r - ya]), wy = simd::splatAs<V>(ey[r - ya]);
-            for (int k = 0; k < chunks; ++k) {
+            for (int k = 0; k < columnChunks; ++k) {
                 V xx, wx;
                 std::memcpy(&xx, dx2 + k * W, sizeof xx);
                 std::memcpy(&wx, ex + k * W, sizeof wx);
@@ -145,9 +157,9 @@ template <class V>
     }
 }
 
-// Three builds of the scatter, chosen when the program starts (crowdFieldPath): four lanes in two
-// SSE2 registers (every x86-64 CPU and others), four in one AVX2 register, eight in one AVX-512
-// register. The same operations lane by lane and no fused multiply-add (fp-contract=off: GCC would
+// Three builds of the scatter, chosen when the program starts (crowdFieldPath): two lanes in one
+// SSE2 register (every x86-64 CPU and others; four lanes in two registers spilled and took 1.4x
+// longer), four in one AVX2 register, eight in one AVX-512 register. The same operations lane by lane and no fused multiply-add (fp-contract=off: GCC would
 // contract a·b + c where the target has FMA, as AVX-512F does), so all give the same bits
 // (Tests/health_safety_grid_test.cpp compares them).
 #if defined(__GNUC__) && !defined(__clang__)
@@ -162,7 +174,7 @@ template <class V>
 CH_FIELD_NO_CONTRACT
 void scatterGeneric(const Vec2* pos, const Vec2* vel, std::size_t n, const ScatterGrid& g, int rowLo, int rowHi,
                     double* sw, double* swx, double* swy) {
-    scatterBoxes<simd::DV>(pos, vel, n, g, rowLo, rowHi, sw, swx, swy);
+    scatterBoxes<simd::DV2>(pos, vel, n, g, rowLo, rowHi, sw, swx, swy);
 }
 
 #ifdef CH_FIELD_X86

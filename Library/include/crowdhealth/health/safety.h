@@ -68,8 +68,8 @@ double fruinLowerDensity(char level);
 /// Evaluates the Helbing et al. 2007 local density and local velocity on the grid (one instant).
 CrowdField crowdField(const AgentStore& agents, double cellSize = 1.0, double gaussianRadius = 0.7);
 
-/// The builds of crowdField's scatter over a rectangle of cells: 0 generic (four lanes in SSE2
-/// registers on x86-64), 1 AVX2, 2 AVX-512 (eight lanes), all giving the same bits. The best this
+/// The builds of crowdField's scatter over a rectangle of cells: 0 generic (two lanes, an SSE2
+/// register on x86-64), 1 AVX2 (four lanes), 2 AVX-512 (eight lanes), all giving the same bits. The best this
 /// CPU runs is used; setCrowdFieldPath returns false and changes nothing when this CPU cannot run
 /// `path` (tests compare the builds; crowdhealth-bench --isa).
 int crowdFieldPath();
