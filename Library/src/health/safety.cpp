@@ -53,6 +53,17 @@ template <class V>
     e = simd::expNonPositive(dd * s);
 }
 
+/// Lane l of v in every lane (GCC: one permute, where a load of the lane from a vector just
+/// stored would wait for the store).
+template <class V>
+[[gnu::always_inline]] inline V laneOf(V v, int l) {
+#if defined(__GNUC__) && !defined(__clang__)
+    return __builtin_shuffle(v, simd::MaskOf<V>{} + l);
+#else
+    return simd::splatAs<V>(v[l]);
+#endif
+}
+
 /// The weights of W cells of a row added to their sums at `at`: w = wx·wy where xx + yy ≤ r2, +0
 /// elsewhere; w·v is ±0 where w is +0, and adding it leaves the sum as it was.
 template <class V>
@@ -82,7 +93,8 @@ template <class V>
 /// vectors of its own columns within reach (4 or 5 at the default cells: one vector of four lanes
 /// for 4 in 5 agents). The exponentials of the columns and rows are computed lane by lane, so a
 /// weight's bits do not depend on its lane. (Until issue 20's eighteenth round the columns went
-/// four at a time from a buffer of d² and weights, with a skip per row: 15–30 % slower.)
+/// four at a time from a buffer of d² and weights, with a skip per row: 1.2x the time in AVX2, 2x
+/// in the generic build.)
 template <class V>
 [[gnu::always_inline]] inline void scatterBoxes(const Vec2* pos, const Vec2* vel, std::size_t n, const ScatterGrid& g,
                                                 int rowLo, int rowHi, double* sw, double* swx, double* swy) {
@@ -121,11 +133,8 @@ template <class V>
             boxWeights(p.y(), ya, iota, c, s, yy, wy);
             std::size_t at = first;
             for (int r = r0; r <= r1; ++r, at += stride) {
-                // Row r's d² and weight in every lane, taken from the registers (a load from the
-                // vector just stored waited for the store).
-                const simd::MaskOf<V> lane = simd::MaskOf<V>{} + (r - ya);
-                addWeights(sw, swx, swy, at, xx, wx, __builtin_shuffle(yy, lane), __builtin_shuffle(wy, lane), r2, vx,
-                           vy);
+                // Row r's d² and weight in every lane, taken from the registers.
+                addWeights(sw, swx, swy, at, xx, wx, laneOf(yy, r - ya), laneOf(wy, r - ya), r2, vx, vy);
             }
             continue;
         }
@@ -159,9 +168,10 @@ template <class V>
 
 // Three builds of the scatter, chosen when the program starts (crowdFieldPath): two lanes in one
 // SSE2 register (every x86-64 CPU and others; four lanes in two registers spilled and took 1.4x
-// longer), four in one AVX2 register, eight in one AVX-512 register. The same operations lane by lane and no fused multiply-add (fp-contract=off: GCC would
-// contract a·b + c where the target has FMA, as AVX-512F does), so all give the same bits
-// (Tests/health_safety_grid_test.cpp compares them).
+// longer), four in one AVX2 register, eight in one AVX-512 register. The same operations lane by
+// lane and no fused multiply-add (fp-contract=off: GCC would contract a·b + c where the target has
+// FMA, as AVX-512F does), so all give the same bits (Tests/health_safety_grid_test.cpp compares
+// them).
 #if defined(__GNUC__) && !defined(__clang__)
 #define CH_FIELD_NO_CONTRACT __attribute__((optimize("fp-contract=off")))
 #else
@@ -412,8 +422,8 @@ CrowdField crowdField(const AgentStore& agents, double cellSize, double R) {
         // Dense rectangle: each agent adds its weight to the cell centres within reach (a scatter,
         // in agent order: no query per cell). The Gaussian is separable,
         // e^{−(dx²+dy²)/R²} = e^{−dx²/R²}·e^{−dy²/R²}, and the centres lie on a lattice: per agent
-        // one exponential per column and per row of its reach box (simd::expNonPositive, four at a
-        // time) instead of one per cell, and a product per cell. The cells counted are those of
+        // one exponential per column and per row of its reach box (simd::expNonPositive, in vectors
+        // of two to eight lanes: scatterBoxes) instead of one per cell, and a product per cell. The cells counted are those of
         // the disc test dx² + dy² ≤ reach²; the weights differ from e^{−d²/R²} in the last bits
         // (the product of two rounded exponentials, each within 3e-16). (The query per cell with
         // glibc's exp was ~8 % of a 10k-agent social-forces run, issue 20.) With several threads,
