@@ -255,17 +255,8 @@ Vec2 pedestrianForcesWide(std::span<const NeighbourAgent> list, const PairLoop& 
 }
 #endif
 
-/// Whether this CPU runs pair-loop path `path` (SocialForcesAvoidance::pairLoopPath).
-bool cpuRuns(int path) {
-#ifdef CH_SF_X86
-    if (path == 1) return cpu::hasAvx2();
-    if (path == 2) return cpu::hasAvx512();
-#endif
-    return path == 0;
-}
-
 /// The pair-loop path in use: the best this CPU runs, found once when the program starts.
-std::atomic<int> gPairLoopPath{cpuRuns(2) ? 2 : cpuRuns(1) ? 1 : 0};
+std::atomic<int> gPairLoopPath{cpu::bestBuild()};
 
 Vec2 pedestrianForces(std::span<const NeighbourAgent> list, const PairLoop& in) {
 #ifdef CH_SF_X86
@@ -348,7 +339,7 @@ Vec2 SocialForcesAvoidance::pairForce(const Vec2& R, double magR, const Vec2& st
 int SocialForcesAvoidance::pairLoopPath() { return gPairLoopPath.load(); }
 
 bool SocialForcesAvoidance::setPairLoopPath(int path) {
-    if (!cpuRuns(path)) return false;
+    if (!cpu::runsBuild(path)) return false;
     gPairLoopPath.store(path);
     return true;
 }

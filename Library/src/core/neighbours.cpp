@@ -199,17 +199,8 @@ std::size_t gatherWide(const PointGrid& grid, const Run* runs, int nRuns, const 
 }
 #endif
 
-/// Whether this CPU runs gather path `path`.
-bool cpuRuns(int path) {
-#ifdef CH_NL_X86
-    if (path == 1) return cpu::hasAvx2();
-    if (path == 2) return cpu::hasAvx512();
-#endif
-    return path == 0;
-}
-
 /// The gather path in use: the best this CPU runs, found once when the program starts.
-std::atomic<int> gGatherPath{cpuRuns(2) ? 2 : cpuRuns(1) ? 1 : 0};
+std::atomic<int> gGatherPath{cpu::bestBuild()};
 
 template <class Entry>
 std::size_t gatherRunsOn(int path, const PointGrid& grid, const Run* runs, int nRuns, const Vec2& p, double r,
@@ -230,7 +221,7 @@ std::size_t gatherRunsOn(int path, const PointGrid& grid, const Run* runs, int n
 int NeighbourLists::gatherPath() { return gGatherPath.load(); }
 
 bool NeighbourLists::setGatherPath(int path) {
-    if (!cpuRuns(path)) return false;
+    if (!cpu::runsBuild(path)) return false;
     gGatherPath.store(path);
     return true;
 }

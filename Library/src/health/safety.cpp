@@ -201,16 +201,8 @@ void scatterAvx512(const Vec2* pos, const Vec2* vel, std::size_t n, const Scatte
 }
 #endif
 
-bool scatterRuns(int path) {
-#ifdef CH_FIELD_X86
-    if (path == 1) return cpu::hasAvx2();
-    if (path == 2) return cpu::hasAvx512();
-#endif
-    return path == 0;
-}
-
 /// The scatter's build in use: the best this CPU runs, found once when the program starts.
-std::atomic<int> gScatterPath{scatterRuns(2) ? 2 : scatterRuns(1) ? 1 : 0};
+std::atomic<int> gScatterPath{cpu::bestBuild()};
 
 void scatterRows(const Vec2* pos, const Vec2* vel, std::size_t n, const ScatterGrid& g, int rowLo, int rowHi,
                  double* sw, double* swx, double* swy) {
@@ -505,7 +497,7 @@ CrowdField crowdField(const AgentStore& agents, double cellSize, double R) {
 int crowdFieldPath() { return gScatterPath.load(); }
 
 bool setCrowdFieldPath(int path) {
-    if (!scatterRuns(path)) return false;
+    if (!cpu::runsBuild(path)) return false;
     gScatterPath.store(path);
     return true;
 }
