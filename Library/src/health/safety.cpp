@@ -415,8 +415,8 @@ CrowdField crowdField(const AgentStore& agents, double cellSize, double R) {
         // in agent order: no query per cell). The Gaussian is separable,
         // e^{−(dx²+dy²)/R²} = e^{−dx²/R²}·e^{−dy²/R²}, and the centres lie on a lattice: per agent
         // one exponential per column and per row of its reach box (simd::expNonPositive, in vectors
-        // of two to eight lanes: scatterBoxes) instead of one per cell, and a product per cell. The cells counted are those of
-        // the disc test dx² + dy² ≤ reach²; the weights differ from e^{−d²/R²} in the last bits
+        // of two to eight lanes: scatterBoxes) instead of one per cell, and a product per cell.
+        // The cells counted are those of the disc test dx² + dy² ≤ reach²; the weights differ from e^{−d²/R²} in the last bits
         // (the product of two rounded exponentials, each within 3e-16). (The query per cell with
         // glibc's exp was ~8 % of a 10k-agent social-forces run, issue 20.) With several threads,
         // each owns a band of rows and walks the agents within reach of it, in agent order: the
