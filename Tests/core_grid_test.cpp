@@ -220,6 +220,70 @@ BOOST_AUTO_TEST_CASE(grid_built_on_two_threads_is_the_serial_one) {
     }
 }
 
+BOOST_AUTO_TEST_CASE(grid_bounds_found_on_two_threads_are_the_serial_ones) {
+    // A plane grid's cells start at the points' lower bounds, which a crowd's build finds on the
+    // team, each thread over its chunk (issue 20). The serial rule, NaN included: bounds start at
+    // points[0] and a NaN coordinate is passed over, unless points[0] has it (then the grid is one
+    // cell). Every case below must give the serial grid: the same order and the same candidates,
+    // so the same cells.
+    const double nan = std::nan("");
+    std::vector<std::pair<const char*, std::vector<Vec2>>> cases;
+    const auto base = randomPoints(3000, -20, 20, 31);
+    cases.emplace_back("random", base);
+    auto lowLast = base;  // the lowest point in the last thread's chunk, after a NaN opening it
+    lowLast[1500] = Vec2(nan, nan);
+    lowLast[2999] = Vec2(-25.3, -24.1);
+    cases.emplace_back("lowest last, NaN first of the second chunk", lowLast);
+    auto highLast = base;
+    highLast[2999] = Vec2(26.7, 23.9);
+    highLast[1700] = Vec2(nan, 3.0);
+    cases.emplace_back("highest last, NaN x in the second chunk", highLast);
+    auto nanFirst = base;
+    nanFirst[0] = Vec2(nan, 0.3);
+    cases.emplace_back("NaN x at points[0]", nanFirst);
+    std::vector<std::vector<std::size_t>> serialCandidates;
+    for (const auto& [name, pts] : cases) {
+        std::vector<int> order[2];
+        std::vector<std::size_t> candidates[2];
+        for (int threads = 1; threads <= 2; ++threads) {
+            omp_set_num_threads(threads);
+            PointGrid grid;
+            grid.build(pts, 0.7);
+            order[threads - 1] = grid.order();
+            for (double x = -26; x <= 27; x += 1.3)
+                for (double y = -25; y <= 25; y += 2.9) candidates[threads - 1].push_back(grid.candidateCount(Vec2(x, y), 0.9));
+        }
+        omp_set_num_threads(2);
+        BOOST_TEST(order[0] == order[1], name);
+        BOOST_TEST(candidates[0] == candidates[1], name);
+        // And the bounds are the rule's, worked out here one point after the other.
+        Vec2 lo = pts[0], hi = pts[0];
+        for (const Vec2& p : pts) {
+            if (p.x() < lo.x()) lo.x() = p.x();
+            if (p.y() < lo.y()) lo.y() = p.y();
+            if (p.x() > hi.x()) hi.x() = p.x();
+            if (p.y() > hi.y()) hi.y() = p.y();
+        }
+        for (int threads = 1; threads <= 2; ++threads) {
+            omp_set_num_threads(threads);
+            PointGrid grid;
+            grid.build(pts, 0.7);
+            const bool finite = std::isfinite(lo.x()) && std::isfinite(lo.y());
+            BOOST_TEST((finite ? grid.origin() == lo : std::isnan(grid.origin().x())), name << ", " << threads << " threads");
+            if (finite) {
+                BOOST_TEST(grid.cellsX() == static_cast<int>(std::floor((hi.x() - lo.x()) / 0.7)) + 1, name);
+                BOOST_TEST(grid.cellsY() == static_cast<int>(std::floor((hi.y() - lo.y()) / 0.7)) + 1, name);
+            } else {
+                BOOST_TEST(grid.cellsX() * grid.cellsY() == 1, name);  // a NaN extent: one cell
+            }
+        }
+        omp_set_num_threads(2);
+        serialCandidates.push_back(candidates[0]);
+    }
+    // The cases are four grids: each extreme point (or the NaN at points[0]) moved the cells.
+    for (std::size_t k = 1; k < serialCandidates.size(); ++k) BOOST_TEST((serialCandidates[k] != serialCandidates[0]), cases[k].first);
+}
+
 BOOST_AUTO_TEST_CASE(grid_without_its_copy_of_the_positions_makes_the_same_calls) {
     // keepPositions(false): queries read the points through order() instead of the grid's copy,
     // with the same calls (index, offset, squared distance, to the bit) in the same order, on a

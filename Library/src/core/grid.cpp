@@ -34,6 +34,47 @@ void cellsCovering(const Vec2& lo, const Vec2& hi, double& cell, int& nx, int& n
         cell *= 2;
     }
 }
+/// The bounds of the points as one loop `lo = hi = points[0]`, then `lo = min(lo, p)` and
+/// `hi = max(hi, p)` over them all gives them (Eigen's cwiseMin/Max keep the left operand unless
+/// the right one compares smaller/larger: a NaN coordinate is passed over, unless points[0] has
+/// it, and of equal values the first is kept). A large crowd's points are scanned on the team, in
+/// the static chunks of the step's other loops, each thread's bounds started from points[0] too
+/// and then taken in thread order: the same bits. (Scanned by the main thread alone, every
+/// position was read by one core at each step, and the other core's writes of its own agents'
+/// positions in the next integration then had to take each cache line back: on two threads that
+/// half of the dense 10k crowd's integration took twice as long as the other, issue 20.)
+void extent(const std::vector<Vec2>& points, Vec2& lo, Vec2& hi) {
+    const std::size_t n = points.size();
+    if (n == 0) return;
+    // In locals: the results' slots of the threads share a cache line.
+    const auto scan = [&](std::size_t begin, std::size_t end, Vec2& lOut, Vec2& hOut) {
+        Vec2 l = points[0], h = points[0];
+        for (std::size_t i = begin; i < end; ++i) {
+            l = l.cwiseMin(points[i]);
+            h = h.cwiseMax(points[i]);
+        }
+        lOut = l;
+        hOut = h;
+    };
+    const int threads = omp_get_max_threads();
+    if (threads <= 1 || !parallelCheapLoop(n)) {
+        scan(0, n, lo, hi);
+        return;
+    }
+    std::vector<Vec2> part(2 * static_cast<std::size_t>(threads), points[0]);
+#pragma omp parallel num_threads(threads)
+    {
+        const std::size_t t = static_cast<std::size_t>(omp_get_thread_num());
+        const std::size_t team = static_cast<std::size_t>(omp_get_num_threads());
+        scan(n * t / team, n * (t + 1) / team, part[2 * t], part[2 * t + 1]);
+    }
+    lo = part[0];
+    hi = part[1];
+    for (std::size_t t = 1; t < static_cast<std::size_t>(threads); ++t) {
+        lo = lo.cwiseMin(part[2 * t]);
+        hi = hi.cwiseMax(part[2 * t + 1]);
+    }
+}
 }  // namespace
 
 void PointGrid::build(const std::vector<Vec2>& points, double cellSize, bool periodic, double width,
@@ -52,13 +93,7 @@ void PointGrid::build(const std::vector<Vec2>& points, double cellSize, bool per
         origin_ = Vec2(-0.5 * width_, -0.5 * height_);
     } else {
         Vec2 lo(0, 0), hi(0, 0);
-        if (!points.empty()) {
-            lo = hi = points[0];
-            for (const Vec2& p : points) {
-                lo = lo.cwiseMin(p);
-                hi = hi.cwiseMax(p);
-            }
-        }
+        extent(points, lo, hi);
         cw_ = cell;
         cellsCovering(lo, hi, cw_, nx_, ny_);
         ch_ = cw_;

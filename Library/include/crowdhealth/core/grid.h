@@ -47,6 +47,11 @@ public:
 
     /// Cell width (x) actually used (≥ the requested size; larger for far-flung points).
     double cellSize() const { return cw_; }
+    /// The corner of cell (0, 0): on a plane, the points' lower bounds; on a torus, the domain's.
+    Vec2 origin() const { return origin_; }
+    /// The cells in x and in y.
+    int cellsX() const { return nx_; }
+    int cellsY() const { return ny_; }
     bool periodic() const { return periodic_; }
 
     /// Whether the next build() keeps a copy of the points' coordinates in cell order (sortedX(),
