@@ -123,7 +123,10 @@ Vec2 ContactForces::wallsPrototype(std::size_t i, const StepContext& ctx, std::v
 void ContactForces::prepare(const StepContext& ctx) {
     const AgentStore& A = ctx.agents;
     const std::size_t n = A.size();
-    accel_.assign(n, Vec2(0, 0));
+    // Sized, not zero-filled: the loop below writes every entry, each on the thread that owns the
+    // agent (a fill here, on one thread, sent the other thread's half of the array across the
+    // cores before its writes, issue 20).
+    accel_.resize(n);
     // The search reach D + max D; the scenario's largest radius, known to the simulation, spares a
     // pass over all agents every step (a larger reach only visits more pairs that do not touch).
     double maxRadius = ctx.maxRadius;
