@@ -10,6 +10,8 @@
 #include "crowdhealth/health/health.h"
 #include "crowdhealth/io/output.h"
 
+#include <omp.h>
+
 #include <algorithm>
 #include <cmath>
 #include <string_view>
@@ -397,4 +399,34 @@ BOOST_AUTO_TEST_CASE(heading_change_is_the_mean_turn_rate_while_moving) {
         const double want = std::abs(turn[i]) / dt;
         BOOST_TEST(std::abs(r.meanAbsHeadingChange() - want) <= 1e-9 * want + 1e-13, "agent " << i << ": " << r.meanAbsHeadingChange() << " rad/s, want " << want);
     }
+}
+
+BOOST_AUTO_TEST_CASE(crush_summary_counts_whoever_is_above_on_any_thread) {
+    // endStep's per-agent part runs on the team, each thread over its blocks of agents; the
+    // crowd-level crush summary is then taken in agent order, and only when some thread saw an
+    // agent above its threshold. Twelve agents (three blocks of the layer's four lanes), one of
+    // them pressed (80 kg · 1 · 100 m/s² = 8000 N > 4500 N): the first, one in the middle block or
+    // the last, on one thread and on two.
+    for (const std::size_t pressed : {std::size_t{0}, std::size_t{6}, std::size_t{11}}) {
+        for (const int threads : {1, 2}) {
+            omp_set_num_threads(threads);
+            std::vector<AgentSpec> agents;
+            for (int k = 0; k < 12; ++k) agents.push_back(agent(k, {2.0 * k, 1.0}, {2.0 * k, 50}));
+            Simulation sim(fineScenario(agents, false, layer({}), 1));
+            AgentStore a = sim.agents();
+            HealthLayer& h = sim.health();
+            const double dt = 0.1;
+            for (int s = 0; s < 3; ++s) {
+                for (std::size_t i = 0; i < a.size(); ++i) a.contactAccel[i] = Vec2(i == pressed ? 100.0 : 1.0, 0.0);
+                h.endStep(a, (s + 1) * dt, dt);
+            }
+            const CrushSummary& c = h.crush();
+            BOOST_TEST(c.samples == 3u, "pressed " << pressed << ", " << threads << " threads");
+            BOOST_TEST(std::abs(c.seconds - 3 * dt) < 1e-12);
+            BOOST_TEST(c.xmin == 2.0 * static_cast<double>(pressed));
+            BOOST_TEST(c.xmax == 2.0 * static_cast<double>(pressed));
+            BOOST_TEST(std::abs(c.firstTime - 0.0) < 1e-12);
+        }
+    }
+    omp_set_num_threads(2);
 }

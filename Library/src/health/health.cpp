@@ -384,9 +384,10 @@ void HealthLayer::steerPreferred(AgentStore& agents, const PointGrid& grid, doub
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 __attribute__((target_clones("avx2", "default")))
 #endif
-void HealthLayer::endStepBlocks(AgentStore& agents, double time, double dt, std::ptrdiff_t b0, std::ptrdiff_t b1) {
+bool HealthLayer::endStepBlocks(AgentStore& agents, double time, double dt, std::ptrdiff_t b0, std::ptrdiff_t b1) {
     constexpr int L = simd::kLanes;
     const std::size_t n = agents.size();
+    bool anyAbove = false;
     for (std::ptrdiff_t bb = b0; bb < b1; ++bb) {
         // Lanes without a turn this step keep (|cross|, dot) = (0, 1): angle 0, not added.
         simd::DV turnY = simd::splat(0.0), turnX = simd::splat(1.0);
@@ -406,6 +407,7 @@ void HealthLayer::endStepBlocks(AgentStore& agents, double time, double dt, std:
             // no moving.
             aboveByRecord_[static_cast<std::size_t>(agents.record[i])] = force > params_[r.policy].crushThreshold ? 1 : 0;
             if (above_[i]) {
+                anyAbove = true;
                 r.timeAboveThreshold += dt;
                 r.dose += force * dt;
                 if (!r.injured() && r.dose >= hp.injuryDose) r.injuredAt = time;
@@ -449,6 +451,7 @@ void HealthLayer::endStepBlocks(AgentStore& agents, double time, double dt, std:
         for (int l = 0; l < L; ++l)
             if (turning[l] != nullptr) turning[l]->headingChange += turn[l];
     }
+    return anyAbove;
 }
 
 void HealthLayer::endStep(AgentStore& agents, double time, double dt) {
@@ -465,15 +468,18 @@ void HealthLayer::endStep(AgentStore& agents, double time, double dt) {
     // endStepBlocks (compiled twice: see there).
     constexpr int L = simd::kLanes;
     const std::ptrdiff_t blocks = (count + L - 1) / L;
-#pragma omp parallel if (parallelCheapLoop(static_cast<std::size_t>(count)))
+    bool someAbove = false;
+#pragma omp parallel reduction(|| : someAbove) if (parallelCheapLoop(static_cast<std::size_t>(count)))
     {
         const std::ptrdiff_t t = omp_get_thread_num(), threads = omp_get_num_threads();
-        endStepBlocks(agents, time, dt, blocks * t / threads, blocks * (t + 1) / threads);
+        someAbove = endStepBlocks(agents, time, dt, blocks * t / threads, blocks * (t + 1) / threads);
     }
     // The crowd-level crush summary in agent order (sums in a fixed order: thread-count independent).
-    // Injuries happen only above the threshold: anyInjured_ is kept here.
+    // Injuries happen only above the threshold: anyInjured_ is kept here. Only when someone is
+    // above it: the flags of the other thread's agents, read here, would otherwise cross the
+    // cores at every step only to be written there again at the next (issue 20).
     bool anyAbove = false;
-    for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t i = 0; someAbove && i < n; ++i) {
         if (!above_[i]) continue;
         if (!anyInjured_ && record(agents, i).injured()) anyInjured_ = true;
         const Vec2& x = agents.pos[i];

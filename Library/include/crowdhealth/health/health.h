@@ -232,8 +232,9 @@ private:
     }
     const HealthRecord& record(const AgentStore& agents, std::size_t i) const { return recordOf(agents, i); }
 
-    /// endStep's per-agent part for the blocks [b0, b1) of simd::kLanes agents (health.cpp).
-    void endStepBlocks(AgentStore& agents, double time, double dt, std::ptrdiff_t b0, std::ptrdiff_t b1);
+    /// endStep's per-agent part for the blocks [b0, b1) of simd::kLanes agents (health.cpp);
+    /// returns whether any of their agents is above its crush threshold.
+    bool endStepBlocks(AgentStore& agents, double time, double dt, std::ptrdiff_t b0, std::ptrdiff_t b1);
 
     /// Record r's CareRecord, made (empty) when it has none. Serial code only: it may grow care_.
     CareRecord& careFor(HealthRecord& r);
