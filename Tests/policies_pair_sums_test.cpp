@@ -210,9 +210,10 @@ BOOST_AUTO_TEST_CASE(contact_force_is_the_models_sum_bit_for_bit_in_every_build)
     for (const int path : paths()) {
         BOOST_TEST_REQUIRE(pairs::setPath(path));
         for (int n = 0; n <= 40; ++n) {
-            // Lists of 1 m (SPH's range) round an agent of radius 0.24: a few neighbours touch it.
+            // Lists of 1 m (SPH's range) round an agent of radius 0.24: a few neighbours touch it;
+            // of radius 1.2, every entry is within reach (whole groups of eight in contact).
             const std::vector<NeighbourAgent> entries = list(n, 1.0, rng);
-            for (const double D : {0.24, 0.5}) {
+            for (const double D : {0.24, 0.5, 1.2}) {
                 const double maxD = 0.28;
                 pairs::ContactInput in;
                 in.entries = entries.data();
