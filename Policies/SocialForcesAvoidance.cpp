@@ -3,6 +3,7 @@
 
 #include "SocialForcesSimd.h"
 #include "crowdhealth/core/cpu_features.h"
+#include "crowdhealth/core/parallel.h"
 
 #include <algorithm>
 #include <atomic>
@@ -356,7 +357,12 @@ void SocialForcesAvoidance::prepare(const StepContext& ctx) {
     // The field of view's cosine, once per step rather than once per agent (a library cos per
     // agent was ~1 % of the UMANS 10k run; issue 20). fov may change between steps (schedules).
     cosFov_ = std::cos(fovDeg_ * kPi / 180.0);
-    for (std::size_t j = 0; j < n; ++j) {
+    // On the team, in the static chunks of the step's other loops: one thread reading every
+    // agent's velocity here made the other core's writes of its velocities in the integration take
+    // each cache line back (issue 20).
+#pragma omp parallel for schedule(static) if (parallelCheapLoop(n))
+    for (std::ptrdiff_t jj = 0; jj < static_cast<std::ptrdiff_t>(n); ++jj) {
+        const std::size_t j = static_cast<std::size_t>(jj);
         step_[j] = relative ? Vec2(dt_ * A.vel[j]) : Vec2(A.vel[j].norm() * dt_ * normalisedOrZero(A.prefVel[j]));
         // What the pair loop reads of a neighbour, in one 32-byte record (one cache line).
         other_[j] = Other{step_[j].x(), step_[j].y(), relative ? 0.0 : step_[j].squaredNorm(), A.radius[j]};
