@@ -68,6 +68,7 @@ void extent(const std::vector<Vec2>& points, Vec2& lo, Vec2& hi) {
         const std::size_t team = static_cast<std::size_t>(omp_get_num_threads());
         scan(n * t / team, n * (t + 1) / team, part[2 * t], part[2 * t + 1]);
     }
+    // (A slot of a thread the team did not get still holds points[0]: it changes nothing.)
     lo = part[0];
     hi = part[1];
     for (std::size_t t = 1; t < static_cast<std::size_t>(threads); ++t) {
