@@ -35,46 +35,40 @@ void cellsCovering(const Vec2& lo, const Vec2& hi, double& cell, int& nx, int& n
     }
 }
 /// The bounds of the points as one loop `lo = hi = points[0]`, then `lo = min(lo, p)` and
-/// `hi = max(hi, p)` over them all gives them (Eigen's cwiseMin/Max keep the left operand unless
-/// the right one compares smaller/larger: a NaN coordinate is passed over, unless points[0] has
-/// it, and of equal values the first is kept). A large crowd's points are scanned on the team, in
-/// the static chunks of the step's other loops, each thread's bounds started from points[0] too
-/// and then taken in thread order: the same bits. (Scanned by the main thread alone, every
-/// position was read by one core at each step, and the other core's writes of its own agents'
-/// positions in the next integration then had to take each cache line back: on two threads that
-/// half of the dense 10k crowd's integration took twice as long as the other, issue 20.)
-void extent(const std::vector<Vec2>& points, Vec2& lo, Vec2& hi) {
+/// `hi = max(hi, p)` over them all gives them (Box::add: Eigen's cwiseMin/Max keep the left
+/// operand unless the right one compares smaller/larger, so a NaN coordinate is passed over,
+/// unless points[0] has it, and of equal values the first is kept). A large crowd's points are
+/// scanned on the team, in the static chunks of the step's other loops, each thread's bounds
+/// started from points[0] too and then taken in thread order: the same bits. (Scanned by the
+/// main thread alone, every position was read by one core at each step, and the other core's
+/// writes of its own agents' positions in the next integration then had to take each cache line
+/// back: on two threads that half of the dense 10k crowd's integration took twice as long as the
+/// other, issue 20.)
+Box extent(const std::vector<Vec2>& points, std::vector<Box>& part) {
     const std::size_t n = points.size();
-    if (n == 0) return;
-    // In locals: the results' slots of the threads share a cache line.
-    const auto scan = [&](std::size_t begin, std::size_t end, Vec2& lOut, Vec2& hOut) {
-        Vec2 l = points[0], h = points[0];
-        for (std::size_t i = begin; i < end; ++i) {
-            l = l.cwiseMin(points[i]);
-            h = h.cwiseMax(points[i]);
-        }
-        lOut = l;
-        hOut = h;
+    if (n == 0) return Box(Vec2(0, 0), Vec2(0, 0));
+    // A thread's bounds in a local Box, stored once: the threads' slots share a cache line.
+    const auto scan = [&](std::size_t begin, std::size_t end) {
+        Box b(points[0], points[0]);
+        for (std::size_t i = begin; i < end; ++i) b.add(points[i]);
+        return b;
     };
     const int threads = omp_get_max_threads();
-    if (threads <= 1 || !parallelCheapLoop(n)) {
-        scan(0, n, lo, hi);
-        return;
-    }
-    std::vector<Vec2> part(2 * static_cast<std::size_t>(threads), points[0]);
+    if (threads <= 1 || !parallelCheapLoop(n)) return scan(0, n);
+    // A slot of a thread the team did not get keeps the box of points[0]: it changes nothing.
+    part.assign(static_cast<std::size_t>(threads), Box(points[0], points[0]));
 #pragma omp parallel num_threads(threads)
     {
         const std::size_t t = static_cast<std::size_t>(omp_get_thread_num());
         const std::size_t team = static_cast<std::size_t>(omp_get_num_threads());
-        scan(n * t / team, n * (t + 1) / team, part[2 * t], part[2 * t + 1]);
+        part[t] = scan(n * t / team, n * (t + 1) / team);
     }
-    // (A slot of a thread the team did not get still holds points[0]: it changes nothing.)
-    lo = part[0];
-    hi = part[1];
-    for (std::size_t t = 1; t < static_cast<std::size_t>(threads); ++t) {
-        lo = lo.cwiseMin(part[2 * t]);
-        hi = hi.cwiseMax(part[2 * t + 1]);
+    Box all = part[0];
+    for (std::size_t t = 1; t < part.size(); ++t) {
+        all.lo = all.lo.cwiseMin(part[t].lo);
+        all.hi = all.hi.cwiseMax(part[t].hi);
     }
+    return all;
 }
 }  // namespace
 
@@ -93,12 +87,11 @@ void PointGrid::build(const std::vector<Vec2>& points, double cellSize, bool per
         ch_ = height_ / ny_;
         origin_ = Vec2(-0.5 * width_, -0.5 * height_);
     } else {
-        Vec2 lo(0, 0), hi(0, 0);
-        extent(points, lo, hi);
+        const Box bounds = extent(points, bounds_);
         cw_ = cell;
-        cellsCovering(lo, hi, cw_, nx_, ny_);
+        cellsCovering(bounds.lo, bounds.hi, cw_, nx_, ny_);
         ch_ = cw_;
-        origin_ = lo;
+        origin_ = bounds.lo;
     }
     const int ncells = nx_ * ny_;
     const std::size_t n = points.size();

@@ -109,6 +109,7 @@ private:
     std::vector<int> sorted_;     ///< point indices, grouped by cell (row-major cells)
     std::vector<double> sortedX_, sortedY_;  ///< points[sorted_[k]]: queries read positions contiguously
     std::vector<int> cellOf_, fill_;  ///< build scratch, kept to avoid allocating every step
+    std::vector<Box> bounds_;         ///< build scratch: each thread's bounds of its points
     bool keepPositions_ = true;
 
     /// forEachCandidate, reading the positions from sortedX_/sortedY_ (kCopies) or via sorted_.
