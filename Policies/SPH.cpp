@@ -6,8 +6,11 @@
 
 #include "crowdhealth/core/kernels.h"
 
+#include <omp.h>
+
 #include <algorithm>
 #include <cmath>
+#include <span>
 
 namespace ch {
 
@@ -79,6 +82,21 @@ void SPH::remapAgents(const std::vector<int>& previous) {
     remapColumn(pressure_, previous, 0.0, true);
     remapColumn(average_, previous, 0.0, true);
     remapColumn(known_, previous, static_cast<unsigned char>(0), true);
+    pieceAgents_ = nullptr;  // the pieces were numbered by the old order: the next prepare() finds them again
+}
+
+bool SPH::storedPieces(std::size_t i, const StepContext& ctx, const wallarea::WallPiece*& first,
+                       std::size_t& count) const {
+    if (pieceAgents_ != &ctx.agents || pieceStep_ != ctx.stepIndex || i >= pieceEnd_.size()) return false;
+    // The thread whose chunk holds i: the last chunk starting at or before it (chunks are
+    // contiguous, in thread order; a thread without agents starts at n).
+    std::size_t t = 0;
+    for (std::size_t u = 1; u < pieceFirst_.size(); ++u)
+        if (pieceFirst_[u] <= i) t = u;
+    const std::size_t begin = i == pieceFirst_[t] ? 0 : pieceEnd_[i - 1];
+    first = threadPieces_[t].data() + begin;
+    count = pieceEnd_[i] - begin;
+    return true;
 }
 
 void SPH::prepare(const StepContext& ctx) {
@@ -98,12 +116,23 @@ void SPH::prepare(const StepContext& ctx) {
     const std::vector<Vec2>& particles = ctx.world.boundaryParticles();
     const PointGrid& particleGrid = ctx.world.particleGrid();
     const bool useParticles = !analytic && !particles.empty();
+    const std::size_t threads = static_cast<std::size_t>(std::max(1, omp_get_max_threads()));
+    pieceAgents_ = nullptr;
+    if (analytic) {
+        if (threadPieces_.size() < threads) threadPieces_.resize(threads);
+        pieceFirst_.assign(threads, n);
+        pieceEnd_.resize(n);
+    }
 
 #pragma omp parallel if (parallelNeighbourLoop(n))
     {
         std::vector<int> near;
         std::vector<wallarea::WallPiece> pieces;
         std::vector<NeighbourAgent> agentsNear;  // the grid's agents, where the step's list does not reach
+        const std::size_t t = static_cast<std::size_t>(omp_get_thread_num());
+        std::vector<wallarea::WallPiece>* kept = analytic ? &threadPieces_[t] : nullptr;
+        if (kept != nullptr) kept->clear();
+        bool first = true;
 #pragma omp for schedule(static)
         for (std::ptrdiff_t ii = 0; ii < static_cast<std::ptrdiff_t>(n); ++ii) {
             const std::size_t i = static_cast<std::size_t>(ii);
@@ -130,6 +159,10 @@ void SPH::prepare(const StepContext& ctx) {
                     const double r = 0.5 * (s.distance + h);
                     rho += s.area * rest * K.poly6(r * r);
                 }
+                if (first) pieceFirst_[t] = i;
+                first = false;
+                kept->insert(kept->end(), pieces.begin(), pieces.end());
+                pieceEnd_[i] = static_cast<std::uint32_t>(kept->size());
             }
             average_[i] = known_[i] ? (1.0 - w) * average_[i] + w * rho : rho;
             known_[i] = 1;
@@ -137,6 +170,10 @@ void SPH::prepare(const StepContext& ctx) {
             restDensity_[i] = clampRest(average_[i]);
             pressure_[i] = gasConstant_ * (rho - restDensity_[i]);
         }
+    }
+    if (analytic) {
+        pieceStep_ = ctx.stepIndex;
+        pieceAgents_ = &A;
     }
 
     if (!useParticles) return;
@@ -219,12 +256,19 @@ Vec2 SPH::acceleration(const AgentQuery& q, const StepContext& ctx) const {
                 if (wallVisc) a -= viscosity_ / rhoK * K.viscosityLaplacian(r) * q.velocity;
             });
     } else if (pressure && analyticWalls()) {
-        // Per-thread scratch, reused from call to call (no allocation inside a step).
-        thread_local std::vector<int> near;
-        thread_local std::vector<wallarea::WallPiece> pieces;
-        ctx.segmentsNear(i, h, near);
-        wallarea::occludedAreas(q.position, h, ctx.world.segments(), near, pieces);
-        for (const wallarea::WallPiece& s : pieces) {
+        // The pieces prepare() found at this position, else (acceleration() asked for at another
+        // step than prepare()'s) found again, in per-thread scratch reused from call to call.
+        const wallarea::WallPiece* first = nullptr;
+        std::size_t count = 0;
+        if (!storedPieces(i, ctx, first, count)) {
+            thread_local std::vector<int> near;
+            thread_local std::vector<wallarea::WallPiece> pieces;
+            ctx.segmentsNear(i, h, near);
+            wallarea::occludedAreas(q.position, h, ctx.world.segments(), near, pieces);
+            first = pieces.data();
+            count = pieces.size();
+        }
+        for (const wallarea::WallPiece& s : std::span<const wallarea::WallPiece>(first, count)) {
             if (s.distance < 1e-12) continue;
             const double r = 0.5 * (s.distance + h);
             a += s.area * pI * K.spikyGradMagnitude(r) * Vec2((q.position - s.nearest) / s.distance);

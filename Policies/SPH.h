@@ -5,6 +5,9 @@
 
 #include "crowdhealth/core/registry.h"
 
+#include "WallArea.h"
+
+#include <cstdint>
 #include <vector>
 
 namespace ch {
@@ -91,6 +94,18 @@ private:
     std::vector<double> density_, restDensity_, pressure_;
     std::vector<double> average_;       ///< ρ̄_i, kept across steps
     std::vector<unsigned char> known_;  ///< 1 once ρ̄_i has been started
+    // Analytic walls: each agent's wall pieces of this step, found by prepare() and read again by
+    // acceleration() (the same position, h and segments give the same pieces; the occlusion's
+    // arcs cost more than either sum over a wall agent's neighbours). Each thread of prepare()'s
+    // loop keeps the pieces of its agents in agent order; pieceEnd_[i] is where agent i's end in
+    // its thread's vector (4 bytes per agent), pieceFirst_[t] the first agent of thread t's chunk.
+    std::vector<std::vector<wallarea::WallPiece>> threadPieces_;
+    std::vector<std::uint32_t> pieceEnd_;
+    std::vector<std::size_t> pieceFirst_;
+    std::uint64_t pieceStep_ = 0;        ///< StepContext::stepIndex of the prepare() that found them
+    const AgentStore* pieceAgents_ = nullptr;  ///< and its agents (null: none kept)
+    /// Agent i's pieces as prepare() found them, or nothing when this step's prepare() kept none.
+    bool storedPieces(std::size_t i, const StepContext& ctx, const wallarea::WallPiece*& first, std::size_t& count) const;
     // per boundary particle (index = World::boundaryParticles())
     std::vector<double> wallDensity_, wallPressure_, wallAverage_;
     std::vector<unsigned char> wallKnown_;

@@ -34,6 +34,7 @@ bool contains(const View& v, double theta) {
 void occludedAreas(const Vec2& p, double h, const std::vector<Segment>& segments, const std::vector<int>& near,
                    std::vector<WallPiece>& out) {
     out.clear();
+    if (near.empty()) return;  // most agents of a crowd: no wall within h (before the thread_local lookups)
     // Per-thread scratch, reused from call to call (no allocation inside a step).
     thread_local std::vector<View> views;
     thread_local std::vector<double> cuts, area;

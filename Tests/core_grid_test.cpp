@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <vector>
 
 using namespace ch;
@@ -189,6 +190,68 @@ BOOST_AUTO_TEST_CASE(segment_grid_matches_brute_force) {
         for (int k = 0; k < static_cast<int>(segs.size()); ++k)
             if (distanceToSegmentSquared(p, segs[k].a, segs[k].b) <= r * r) expected.push_back(k);
         BOOST_TEST(got == expected);
+    }
+}
+
+BOOST_AUTO_TEST_CASE(segment_clearance_is_a_close_lower_bound) {
+    // SegmentGrid::near answers "nothing within radius" from a raster of lower bounds of the
+    // distance to the walls without scanning: the bound must never exceed the true distance (or
+    // near() would miss a wall), and it must be close to it (or it saves nothing): within half a
+    // raster cell's diagonal (0.5 m cells here: the bound is the distance from the centre of the
+    // point's cell less half a diagonal) away from the walls, 0 beyond the raster.
+    Rng rng(5);
+    std::vector<Segment> segs;
+    for (int k = 0; k < 40; ++k) {
+        Vec2 a(rng.uniform(-15, 15), rng.uniform(-15, 15));
+        Vec2 b = a + Vec2(rng.uniform(-4, 4), rng.uniform(-4, 4));
+        segs.push_back(Segment{a, b, k});
+    }
+    segs.push_back(Segment{Vec2(-15, -16), Vec2(15, -16), 40});  // a long wall
+    SegmentGrid grid;
+    grid.build(segs, 2.0);
+    const auto trueDistance = [&](const Vec2& p) {
+        double d2 = std::numeric_limits<double>::infinity();
+        for (const Segment& s : segs) d2 = std::min(d2, distanceToSegmentSquared(p, s.a, s.b));
+        return std::sqrt(d2);
+    };
+    std::vector<int> got;
+    int scanned = 0, farEnough = 0;
+    for (int q = 0; q < 20000; ++q) {
+        const Vec2 p(rng.uniform(-24, 24), rng.uniform(-26, 24));
+        const double d = trueDistance(p), c = grid.clearance(p);
+        BOOST_TEST(c <= d, "p = (" << p.x() << ", " << p.y() << ")");
+        BOOST_TEST(c >= 0);
+        if (d < SegmentGrid::kClearanceReach - 0.5) {
+            BOOST_TEST(c >= d - std::sqrt(2.0) * 0.5 - 1e-5, "c " << c << " d " << d << " p = (" << p.x() << ", " << p.y() << ")");
+            ++farEnough;
+        }
+        // Radii on both sides of the true distance: near() keeps exactly the walls within reach.
+        for (const double r : {d - 1e-9, d, d + 1e-9, 0.5 * d, c, c + 0.01}) {
+            if (!(r >= 0)) continue;
+            grid.near(p, r, got);
+            std::vector<int> expected;
+            for (int k = 0; k < static_cast<int>(segs.size()); ++k)
+                if (distanceToSegmentSquared(p, segs[k].a, segs[k].b) <= r * r) expected.push_back(k);
+            BOOST_TEST(got == expected);
+            ++scanned;
+        }
+    }
+    BOOST_TEST(farEnough > 10000);
+    // Beyond the raster (the walls' bounds and its reach) nothing is known.
+    BOOST_TEST(grid.clearance(Vec2(200, 0)) == 0.0);
+    BOOST_TEST(grid.clearance(Vec2(std::nan(""), 0)) == 0.0);
+    // A single far wall: a point 3 m from it has a bound between 3 − 0.71 and 3.
+    SegmentGrid one;
+    const std::vector<Segment> wall = {Segment{Vec2(0, 0), Vec2(10, 0), 0}};
+    one.build(wall, 2.0);
+    for (double x = 0.05; x < 10; x += 0.37) {
+        const double c = one.clearance(Vec2(x, 3.0));
+        BOOST_TEST(c <= 3.0);
+        BOOST_TEST(c > 3.0 - 0.71);
+        one.near(Vec2(x, 3.0), 2.9, got);
+        BOOST_TEST(got.empty());
+        one.near(Vec2(x, 3.0), 3.0, got);
+        BOOST_TEST(got == std::vector<int>{0});
     }
 }
 

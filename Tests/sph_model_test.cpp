@@ -12,6 +12,8 @@
 #include "crowdhealth/core/rng.h"
 #include "crowdhealth/io/xml.h"
 
+#include <omp.h>
+
 #include <cmath>
 #include <memory>
 
@@ -286,6 +288,41 @@ BOOST_AUTO_TEST_CASE(analytic_wall_raises_density_and_pushes_away) {
     const Vec2 a = squeezed->acceleration(f.query(0), f.ctx());
     BOOST_TEST(a.y() < 0);  // away from the wall at y = 0.3
     BOOST_TEST(std::abs(a.x()) < 1e-9);
+}
+
+BOOST_AUTO_TEST_CASE(walls_found_in_prepare_push_as_walls_found_again) {
+    // acceleration() reads the wall pieces prepare() found at the same step (kept per thread of
+    // its loop, in each thread's chunk of the agents); asked at another step it finds them again.
+    // The two must agree to the bit for every agent, on one thread and on two (ctest runs the
+    // team for small crowds: CROWDHEALTH_PARALLEL_MIN_AGENTS=1).
+    const std::vector<ObstacleSpec> room = {box(-1, -1, 8, 1), box(-1, 4, 8, 1), box(-1, 0, 1, 4), box(6, 0, 1, 4),
+                                            box(2.8, 1.6, 0.4, 0.8)};  // a pillar in the middle
+    std::vector<AgentSpec> specs;
+    Rng rng(7);
+    for (int k = 0; k < 110; ++k)
+        specs.push_back(still(static_cast<AgentId>(k), Vec2(rng.uniform(0.1, 5.9), rng.uniform(0.1, 3.9))));
+    Frozen f(specs, room);
+    for (const int threads : {1, 2}) {
+        omp_set_num_threads(threads);
+        auto sph = makeSPH({{"range", 1}, {"restDensityMin", 0}, {"restDensityMax", 0}});  // everyone pressed
+        sph->prepare(f.ctx());  // two steps' prepare(): the second keeps only its own pieces
+        sph->prepare(f.ctx());
+        Frozen later = f;
+        later.step = f.step + 1;
+        later.rebuild();
+        int walled = 0;
+        for (std::size_t i = 0; i < f.agents.size(); ++i) {
+            const Vec2 kept = sph->acceleration(f.query(i), f.ctx());
+            const Vec2 again = sph->acceleration(later.query(i), later.ctx());
+            BOOST_TEST(kept.x() == again.x(), "agent " << i << " threads " << threads);
+            BOOST_TEST(kept.y() == again.y(), "agent " << i << " threads " << threads);
+            std::vector<int> near;
+            f.world.segmentsNear(f.agents.pos[i], 1.0, near);
+            if (!near.empty()) ++walled;
+        }
+        BOOST_TEST(walled >= 40);  // most of the room's agents have a wall within h
+    }
+    omp_set_num_threads(2);
 }
 
 // ---- boundary particles (walls = particles) ---------------------------------------------------

@@ -7,7 +7,7 @@
 
 namespace ch {
 
-void StepContext::segmentsNear(std::size_t i, double radius, std::vector<int>& out) const {
+void StepContext::segmentsNearScan(std::size_t i, double radius, std::vector<int>& out) const {
     if (!listReaches(i, radius)) {
         world.segmentsNear(agents.pos[i], radius, out);
         return;

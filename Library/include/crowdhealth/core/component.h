@@ -114,7 +114,18 @@ struct StepContext {
 
     /// Wall segments within `radius` of agent i into `out` (ascending), from the step's lists
     /// when they reach far enough, else from the world's segment grid.
-    void segmentsNear(std::size_t i, double radius, std::vector<int>& out) const;
+    void segmentsNear(std::size_t i, double radius, std::vector<int>& out) const {
+        // Most agents of a crowd: a list that reaches far enough and holds no wall (inline, since
+        // SPH and ContactForces ask for every agent at every step).
+        if (listReaches(i, radius) && lists->segmentCount(i) == 0) {
+            out.clear();
+            return;
+        }
+        segmentsNearScan(i, radius, out);
+    }
+    /// segmentsNear() where the list holds walls or does not reach: its walls filtered by
+    /// distance, or the world's segment grid.
+    void segmentsNearScan(std::size_t i, double radius, std::vector<int>& out) const;
 
     /// A random stream private to (agent, step, stream): same numbers whatever the thread count.
     Rng rng(const AgentQuery& q, std::uint64_t stream) const {

@@ -162,14 +162,33 @@ public:
     /// Indices of the segments that come within `radius` of p (each once, ascending).
     void near(const Vec2& p, double radius, std::vector<int>& out) const;
     bool empty() const { return segments_ == nullptr || segments_->empty(); }
+    /// A lower bound (m) of p's distance to every segment: 0 where nothing is known (outside the
+    /// clearance raster, NaN p), at most kClearanceReach. near() with a smaller radius finds nothing.
+    double clearance(const Vec2& p) const {
+        const double fx = (p.x() - clearOrigin_.x()) * clearInv_, fy = (p.y() - clearOrigin_.y()) * clearInv_;
+        if (!(fx >= 0 && fy >= 0 && fx < clearNx_ && fy < clearNy_)) return 0;
+        return clear_[static_cast<std::size_t>(fy) * static_cast<std::size_t>(clearNx_) + static_cast<std::size_t>(fx)];
+    }
+    /// How far the clearance raster looks for segments (m): queries of a larger radius always scan.
+    static constexpr double kClearanceReach = 6.0;
 
 private:
+    /// The clearance raster: square cells of side clearCell_ (0.5 m, doubled to stay within
+    /// 2^20 cells) over the segments' bounds widened by kClearanceReach, each holding
+    /// min(distance from its centre to the nearest segment, kClearanceReach) less half its
+    /// diagonal and a margin for rounding, as a float rounded down, and never below 0.
+    void buildClearance(const Vec2& lo, const Vec2& hi);
+
     const std::vector<Segment>* segments_ = nullptr;
     double cell_ = 1;
     Vec2 origin_{0, 0};
     int nx_ = 0, ny_ = 0;
     std::vector<int> cellStart_;  ///< size nx*ny+1: the segments of cell c are items_[start[c], start[c+1])
     std::vector<int> items_;
+    Vec2 clearOrigin_{0, 0};
+    double clearInv_ = 0;
+    int clearNx_ = 0, clearNy_ = 0;
+    std::vector<float> clear_;
 };
 
 // ---- template implementation -------------------------------------------------------------

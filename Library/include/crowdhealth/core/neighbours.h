@@ -112,6 +112,8 @@ public:
         const std::span<const int> list = indices(i);
         for (const int j : list) f(j, offset(i, j));
     }
+    /// How many walls segments(i) holds.
+    std::size_t segmentCount(std::size_t i) const { return slices_[i].segments; }
     /// Wall segments within radius(i), ascending.
     std::span<const int> segments(std::size_t i) const {
         const Slice& s = slices_[i];
