@@ -273,8 +273,20 @@ void SegmentGrid::buildClearance(const Vec2& lo, const Vec2& hi) {
     // A point of a cell is at most half a diagonal from its centre (plus what rounding in
     // clearance()'s cell lookup may add, far below the micrometre kept here).
     const double slack = 0.5 * std::sqrt(2.0) * cell + 1e-6;
-    std::vector<double> nearest(static_cast<std::size_t>(clearNx_) * clearNy_, reach);
+    // The bound as a float rounded down (never above the double it stands for), kept at once:
+    // no second raster of doubles (the 1M crowd's room has ~930,000 cells).
+    const auto below = [](double bound) {
+        if (!(bound > 0)) return 0.0f;  // NaN too: nothing known
+        const float f = static_cast<float>(bound);
+        return static_cast<double>(f) > bound ? std::nextafter(f, 0.0f) : f;
+    };
+    clear_.assign(static_cast<std::size_t>(clearNx_) * clearNy_, below(reach - slack));
     for (const Segment& s : *segments_) {
+        if (!s.a.allFinite() || !s.b.allFinite()) {  // no cell range to bound: no raster, every query scans
+            clear_.clear();
+            clearNx_ = clearNy_ = 0;
+            return;
+        }
         const Vec2 a = s.a.cwiseMin(s.b) - Vec2(reach, reach), b = s.a.cwiseMax(s.b) + Vec2(reach, reach);
         const int x0 = std::max(0, static_cast<int>(std::floor((a.x() - from.x()) / cell)));
         const int x1 = std::min(clearNx_ - 1, static_cast<int>(std::floor((b.x() - from.x()) / cell)));
@@ -283,17 +295,10 @@ void SegmentGrid::buildClearance(const Vec2& lo, const Vec2& hi) {
         for (int y = y0; y <= y1; ++y)
             for (int x = x0; x <= x1; ++x) {
                 const Vec2 centre = from + Vec2((x + 0.5) * cell, (y + 0.5) * cell);
-                const double d = std::sqrt(distanceToSegmentSquared(centre, s.a, s.b));
-                double& m = nearest[static_cast<std::size_t>(y) * clearNx_ + x];
-                if (!(d >= m)) m = d == d ? d : 0.0;  // a NaN distance knows nothing
+                const float bound = below(std::sqrt(distanceToSegmentSquared(centre, s.a, s.b)) - slack);
+                float& m = clear_[static_cast<std::size_t>(y) * clearNx_ + x];
+                if (bound < m) m = bound;
             }
-    }
-    clear_.resize(nearest.size());
-    for (std::size_t c = 0; c < nearest.size(); ++c) {
-        const double bound = std::max(0.0, nearest[c] - slack);
-        float f = static_cast<float>(bound);
-        if (static_cast<double>(f) > bound) f = std::nextafter(f, 0.0f);  // rounded down: still a lower bound
-        clear_[c] = f;
     }
 }
 

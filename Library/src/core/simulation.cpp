@@ -417,8 +417,10 @@ void Simulation::evaluateAgents(bool coarseBoundary) {
     const std::size_t n = agents_.size();
     // The largest radius bounds the reach of UMANS' contact (umansContactAcceleration); NaN radii
     // never touch, and with none finite the bound is −inf (the filter then keeps every entry).
+    // Only where some policy has that contact: the scan reads every agent's radius on one thread.
     double maxRadius = -std::numeric_limits<double>::infinity();
-    for (const double r : agents_.radius) maxRadius = r > maxRadius ? r : maxRadius;
+    if (anyUmansContact_)
+        for (const double r : agents_.radius) maxRadius = r > maxRadius ? r : maxRadius;
     if (listScratch_.size() < static_cast<std::size_t>(omp_get_max_threads()))
         listScratch_.resize(static_cast<std::size_t>(omp_get_max_threads()));
 #pragma omp parallel if (parallelNeighbourLoop(n))
