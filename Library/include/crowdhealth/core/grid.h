@@ -173,7 +173,7 @@ public:
     static constexpr double kClearanceReach = 6.0;
 
 private:
-    /// The clearance raster: square cells of side clearCell_ (0.5 m, doubled to stay within
+    /// The clearance raster: square cells of side 1 / clearInv_ (0.5 m, doubled to stay within
     /// 2^20 cells) over the segments' bounds widened by kClearanceReach, each holding
     /// min(distance from its centre to the nearest segment, kClearanceReach) less half its
     /// diagonal and a margin for rounding, as a float rounded down, and never below 0.
