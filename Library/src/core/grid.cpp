@@ -34,6 +34,17 @@ void cellsCovering(const Vec2& lo, const Vec2& hi, double& cell, int& nx, int& n
         cell *= 2;
     }
 }
+/// The cells [x0, x1] × [y0, y1] of an nx × ny grid (corner `origin`, square cells of side
+/// `cell`) that the box touches, clamped to the grid: empty (x0 > x1 or y0 > y1) when the box lies
+/// outside it. Bounds of finite values only (the cell numbers must fit an int).
+struct CellRange {
+    int x0, x1, y0, y1;
+};
+CellRange cellRange(const Box& box, const Vec2& origin, double cell, int nx, int ny) {
+    const auto at = [&](double v, double o) { return static_cast<int>(std::floor((v - o) / cell)); };
+    return {std::max(0, at(box.lo.x(), origin.x())), std::min(nx - 1, at(box.hi.x(), origin.x())),
+            std::max(0, at(box.lo.y(), origin.y())), std::min(ny - 1, at(box.hi.y(), origin.y()))};
+}
 /// The bounds of the points as one loop `lo = hi = points[0]`, then `lo = min(lo, p)` and
 /// `hi = max(hi, p)` over them all gives them (Box::add: Eigen's cwiseMin/Max keep the left
 /// operand unless the right one compares smaller/larger, so a NaN coordinate is passed over,
@@ -231,13 +242,9 @@ void SegmentGrid::build(const std::vector<Segment>& segments, double cellSize) {
     const std::size_t ncells = static_cast<std::size_t>(nx_) * ny_;
     cellStart_.assign(ncells + 1, 0);
     auto forCells = [&](const Segment& s, auto&& f) {
-        const Vec2 a = s.a.cwiseMin(s.b), b = s.a.cwiseMax(s.b);
-        const int x0 = static_cast<int>(std::floor((a.x() - origin_.x()) / cell_));
-        const int x1 = static_cast<int>(std::floor((b.x() - origin_.x()) / cell_));
-        const int y0 = static_cast<int>(std::floor((a.y() - origin_.y()) / cell_));
-        const int y1 = static_cast<int>(std::floor((b.y() - origin_.y()) / cell_));
-        for (int y = std::max(0, y0); y <= std::min(ny_ - 1, y1); ++y)
-            for (int x = std::max(0, x0); x <= std::min(nx_ - 1, x1); ++x) f(static_cast<std::size_t>(y) * nx_ + x);
+        const CellRange r = cellRange(Box(s.a, s.b), origin_, cell_, nx_, ny_);
+        for (int y = r.y0; y <= r.y1; ++y)
+            for (int x = r.x0; x <= r.x1; ++x) f(static_cast<std::size_t>(y) * nx_ + x);
     };
     for (const Segment& s : segments) forCells(s, [&](std::size_t c) { ++cellStart_[c + 1]; });
     for (std::size_t c = 0; c < ncells; ++c) cellStart_[c + 1] += cellStart_[c];
@@ -287,13 +294,9 @@ void SegmentGrid::buildClearance(const Vec2& lo, const Vec2& hi) {
             clearNx_ = clearNy_ = 0;
             return;
         }
-        const Vec2 a = s.a.cwiseMin(s.b) - Vec2(reach, reach), b = s.a.cwiseMax(s.b) + Vec2(reach, reach);
-        const int x0 = std::max(0, static_cast<int>(std::floor((a.x() - from.x()) / cell)));
-        const int x1 = std::min(clearNx_ - 1, static_cast<int>(std::floor((b.x() - from.x()) / cell)));
-        const int y0 = std::max(0, static_cast<int>(std::floor((a.y() - from.y()) / cell)));
-        const int y1 = std::min(clearNy_ - 1, static_cast<int>(std::floor((b.y() - from.y()) / cell)));
-        for (int y = y0; y <= y1; ++y)
-            for (int x = x0; x <= x1; ++x) {
+        const CellRange r = cellRange(Box(s.a, s.b).grown(reach), from, cell, clearNx_, clearNy_);
+        for (int y = r.y0; y <= r.y1; ++y)
+            for (int x = r.x0; x <= r.x1; ++x) {
                 const Vec2 centre = from + Vec2((x + 0.5) * cell, (y + 0.5) * cell);
                 const float bound = below(std::sqrt(distanceToSegmentSquared(centre, s.a, s.b)) - slack);
                 float& m = clear_[static_cast<std::size_t>(y) * clearNx_ + x];
