@@ -13,6 +13,7 @@
 #include <cctype>
 #include <cmath>
 #include <cstring>
+#include <memory>
 #include <new>
 #include <type_traits>
 
@@ -403,12 +404,16 @@ CrowdField crowdField(const AgentStore& agents, double cellSize, double R) {
     f.people.assign(cells, 0);
     const int nx = cells > 0 ? f.ix.back() - f.ix.front() + 1 : 0;
     f.cellOfAgent.resize(n);
-    for (std::size_t i = 0; i < n; ++i) {
+    // The entry of each agent's cell (entries in [0, cells)) and the count of those in entries
+    // [from, to): a band of rows counts its own cells' people.
+    const auto cellOf = [&](std::size_t i) {
         const Vec2& p = agents.pos[i];
-        const std::size_t c = f.find(cellIndex(p.x(), cellSize), cellIndex(p.y(), cellSize));
-        f.cellOfAgent[i] = static_cast<std::uint32_t>(c);
-        if (c < cells) ++f.people[c];
-    }
+        f.cellOfAgent[i] = static_cast<std::uint32_t>(f.find(cellIndex(p.x(), cellSize), cellIndex(p.y(), cellSize)));
+    };
+    const auto countPeople = [&](std::size_t from, std::size_t to) {
+        for (std::size_t i = 0; i < n; ++i)
+            if (const std::size_t c = f.cellOfAgent[i]; c >= from && c < to) ++f.people[c];
+    };
     const double norm = 1.0 / (kPi * R * R), invR2 = 1.0 / (R * R);
     if (dense) {
         // Dense rectangle: each agent adds its weight to the cell centres within reach (a scatter,
@@ -439,38 +444,57 @@ CrowdField crowdField(const AgentStore& agents, double cellSize, double R) {
         g.stride = g.pad + static_cast<std::size_t>(nx) + static_cast<std::size_t>(g.box) + 8;
         g.reach2 = reach * reach;
         g.negInvR2 = -invR2;
+        // The three sums of each slot, not initialised here: each band zeroes its own rows.
         const std::size_t sumCells = static_cast<std::size_t>(g.ny) * g.stride;
-        std::vector<double> sw(sumCells, 0.0), swx(sumCells, 0.0), swy(sumCells, 0.0);
+        const std::unique_ptr<double[]> sums(new double[3 * sumCells]);
+        double* const sw = sums.get();
+        double* const swx = sw + sumCells;
+        double* const swy = swx + sumCells;
         // Two bands or more only for a crowd that shares its loops (core/parallel.h) and rows
-        // enough that a band is more than its agents' reach (each band walks every agent).
+        // enough that a band is more than its agents' reach (each band walks every agent). All of
+        // a record's work on the field is in the bands (issue 20: on two threads, the agents'
+        // cells, the zeroing of the sums and the densities from them, done by one thread before
+        // and after the bands, left the safety grid 1.3 times as fast as on one): the agents'
+        // cells in static chunks, then each band's rows alone — its people, its sums and its
+        // cells' density and velocity — the same bits for any number of bands.
         const int threads = parallelNeighbourLoop(n) ? std::max(1, std::min(omp_get_max_threads(), g.ny / 8)) : 1;
 #pragma omp parallel num_threads(threads) if (threads > 1)
         {
+            const long count = static_cast<long>(n);
+#pragma omp for schedule(static)
+            for (long i = 0; i < count; ++i) cellOf(static_cast<std::size_t>(i));
             const int t = omp_get_thread_num(), bands = omp_get_num_threads();
             const int lo = g.y0 + static_cast<int>(static_cast<long>(g.ny) * t / bands);
             const int hi = g.y0 + static_cast<int>(static_cast<long>(g.ny) * (t + 1) / bands) - 1;
-            scatterRows(agents.pos.data(), agents.vel.data(), n, g, lo, hi, sw.data(), swx.data(), swy.data());
-        }
-        // Without a branch per cell (so that the loop vectorises): a cell with no weight keeps
-        // density 0, velocity (0, 0) and weighted 0.
-        for (int y = 0; y < g.ny; ++y) {
-            const double* const a = sw.data() + static_cast<std::size_t>(y) * g.stride + g.pad;
-            const double* const b = swx.data() + static_cast<std::size_t>(y) * g.stride + g.pad;
-            const double* const c = swy.data() + static_cast<std::size_t>(y) * g.stride + g.pad;
-            const std::size_t to = static_cast<std::size_t>(y) * static_cast<std::size_t>(nx);
-            double* const density = f.density.data() + to;
-            Vec2* const velocity = f.velocity.data() + to;
-            unsigned char* const weighted = f.weighted.data() + to;
-            for (int x = 0; x < nx; ++x) {
-                const double w = a[x];
-                const bool in = w > 0;
-                density[x] = in ? norm * w : 0.0;
-                velocity[x] = in ? Vec2(b[x] / w, c[x] / w) : Vec2(0, 0);
-                weighted[x] = in;
+            const std::size_t rowLo = static_cast<std::size_t>(lo - g.y0), rows = static_cast<std::size_t>(hi - lo + 1);
+            countPeople(rowLo * static_cast<std::size_t>(nx), (rowLo + rows) * static_cast<std::size_t>(nx));
+            std::fill_n(sw + rowLo * g.stride, rows * g.stride, 0.0);
+            std::fill_n(swx + rowLo * g.stride, rows * g.stride, 0.0);
+            std::fill_n(swy + rowLo * g.stride, rows * g.stride, 0.0);
+            scatterRows(agents.pos.data(), agents.vel.data(), n, g, lo, hi, sw, swx, swy);
+            // Without a branch per cell (so that the loop vectorises): a cell with no weight keeps
+            // density 0, velocity (0, 0) and weighted 0.
+            for (std::size_t y = rowLo; y < rowLo + rows; ++y) {
+                const double* const a = sw + y * g.stride + g.pad;
+                const double* const b = swx + y * g.stride + g.pad;
+                const double* const c = swy + y * g.stride + g.pad;
+                const std::size_t to = y * static_cast<std::size_t>(nx);
+                double* const density = f.density.data() + to;
+                Vec2* const velocity = f.velocity.data() + to;
+                unsigned char* const weighted = f.weighted.data() + to;
+                for (int x = 0; x < nx; ++x) {
+                    const double w = a[x];
+                    const bool in = w > 0;
+                    density[x] = in ? norm * w : 0.0;
+                    velocity[x] = in ? Vec2(b[x] / w, c[x] / w) : Vec2(0, 0);
+                    weighted[x] = in;
+                }
             }
         }
         return f;
     }
+    for (std::size_t i = 0; i < n; ++i) cellOf(i);
+    countPeople(0, cells);
     // Cells scattered far apart: a disc query per cell.
     PointGrid grid;
     grid.build(agents.pos, 0.5 * reach);  // half-size cells: fewer candidates per disc query
@@ -653,45 +677,57 @@ void SafetyRecorder::recordAt(const AgentStore& a, double t, const HealthLayer* 
         bx0_ = std::min(bx0_, x0), bx1_ = std::max(bx1_, x1);
         by0_ = std::min(by0_, f.iy.front()), by1_ = std::max(by1_, f.iy.back());
     }
-    // Contact: the largest contact acceleration of the agents in each entry's cell (max is exact
-    // in any order), folded into the cells in the loop below, which walks the grid in order (the
-    // agents' order would visit the 160-byte cells at random). Crush: each agent's last force
-    // against its own threshold.
-    std::vector<double> contact(health != nullptr ? f.size() : 0, 0.0);
-    std::vector<std::pair<int, int>> crushCells;  // (iy, ix) of the agents above their threshold
-    // The health layer's byte per record when it has them (the test below, without reading the
-    // agent's 128-byte record).
-    const unsigned char* crushed = health != nullptr ? health->crushFlags() : nullptr;
-    for (std::size_t i = 0; i < a.size() && health != nullptr; ++i) {
-        const HealthLayer& h = *health;
-        const std::size_t k = f.cellOfAgent[i];
-        contact[k] = std::max(contact[k], a.contactAccel[i].norm());
-        const int rec = a.record[i];
-        bool above;
-        if (crushed != nullptr && rec >= 0) {
-            above = crushed[static_cast<std::size_t>(rec)] != 0;
-        } else {
-            const HealthRecord& r = h.recordOf(a, i);
-            above = r.lastForce > h.params(r.policy).crushThreshold;
-        }
-        if (above) {
-            crushCells.emplace_back(f.iy[k], f.ix[k]);
-            held[Crush] = true;
-            ++people[Crush];
-        }
-    }
     // The cells: each entry writes only its own cell, and what they add up (whether a condition
-    // held, how many people, the largest pressure) is exact in any order, so with several threads
-    // (the cells on the flat grid, a field of thousands of cells) each takes a share of the
-    // entries and the results are the same bits.
+    // held, how many people, the largest pressure, the cells of crushed people) is exact in any
+    // order, so with several threads (the cells on the flat grid, a field of thousands of cells)
+    // each takes a share of the entries and the results are the same bits.
     struct Tally {
         bool held[kConditions] = {false, false, false, false, false};
         std::size_t people[kConditions] = {0, 0, 0, 0, 0};
         double maxPressure = 0;
+        std::vector<std::pair<int, int>> crushCells;  // (iy, ix) of the agents above their threshold
     };
-    // The field's columns and the thresholds in locals: the cell's byte (worstLos) may alias
-    // anything, so values read through `f` or `t_` would otherwise be loaded again after every
-    // store to it; and the lambda inlined into its loops (issue 20: a sixth of the cells' time).
+    // Contact: the largest contact acceleration of the agents in each entry's cell (max is exact
+    // in any order), folded into the cells in the loop below, which walks the grid in order (the
+    // agents' order would visit the 160-byte cells at random). Crush: each agent's last force
+    // against its own threshold. A share of entries [from, to) takes the agents whose cell is
+    // one of them (`last`: and those in no entry, for the count of crushed people), so that a
+    // thread reads only its own agents' accelerations and writes only its own entries (issue 20:
+    // one thread did this for every agent before the cells, the safety grid's largest serial
+    // part on two threads).
+    std::vector<double> contact(health != nullptr ? f.size() : 0, 0.0);
+    // The health layer's byte per record when it has them (the test below, without reading the
+    // agent's 128-byte record).
+    const unsigned char* const crushed = health != nullptr ? health->crushFlags() : nullptr;
+    const auto agentsOf = [&](std::size_t from, std::size_t to, bool last, Tally& tally) {
+        if (health == nullptr) return;
+        const HealthLayer& h = *health;
+        const std::uint32_t* const cellOf = f.cellOfAgent.data();
+        const std::size_t entries = f.size();
+        for (std::size_t i = 0; i < a.size(); ++i) {
+            const std::size_t k = cellOf[i];
+            const bool inField = k < entries;
+            if (inField ? k < from || k >= to : !last) continue;
+            if (inField) contact[k] = std::max(contact[k], a.contactAccel[i].norm());
+            const int rec = a.record[i];
+            bool above;
+            if (crushed != nullptr && rec >= 0) {
+                above = crushed[static_cast<std::size_t>(rec)] != 0;
+            } else {
+                const HealthRecord& r = h.recordOf(a, i);
+                above = r.lastForce > h.params(r.policy).crushThreshold;
+            }
+            if (above) {
+                if (inField) tally.crushCells.emplace_back(f.iy[k], f.ix[k]);
+                tally.held[Crush] = true;
+                ++tally.people[Crush];
+            }
+        }
+    };
+    // The field's columns, the thresholds and the record's numbers in locals, captured by value:
+    // the cell's byte (worstLos) may alias anything, so values read through `f`, `t_` or a
+    // captured reference would otherwise be loaded again after every store to it; and the lambda
+    // inlined into its loops (issue 20: a sixth of the cells' time).
     const double* const density = f.density.data();
     const Vec2* const velocity = f.velocity.data();
     const unsigned char* const weighted = f.weighted.data();
@@ -699,10 +735,13 @@ void SafetyRecorder::recordAt(const AgentStore& a, double t, const HealthLayer* 
     const double* const contactIn = contact.data();
     const double minDuration = t_.minDuration, pressureCritical = t_.crowdPressureCritical,
                  densityCaution = t_.densityCaution;
-    auto evaluate = [&, density, velocity, weighted, peopleIn, contactIn](Cell& cell, std::size_t k, Tally& tally) __attribute__((always_inline)) {
+    const bool withContact = health != nullptr;
+    auto evaluate = [density, velocity, weighted, peopleIn, contactIn, minDuration, pressureCritical, densityCaution,
+                     withContact, levels, previous, dt, t, alpha](Cell& cell, std::size_t k, Tally& tally)
+        __attribute__((always_inline)) {
         const double d = density[k];
         cell.maxDensity = std::max(cell.maxDensity, d);
-        if (health != nullptr) cell.maxContact = std::max(cell.maxContact, contactIn[k]);
+        if (withContact) cell.maxContact = std::max(cell.maxContact, contactIn[k]);
         // Fruin's levels: how long each has held here without a break (a cell missed by a record
         // — nobody within reach — starts again). The runs never grow with the level (each level's
         // run holds whenever a worse one's does), so the levels that held for minDuration are
@@ -752,25 +791,30 @@ void SafetyRecorder::recordAt(const AgentStore& a, double t, const HealthLayer* 
             tally.people[Pressure] += static_cast<std::size_t>(peopleIn[k]);
         }
     };
-    auto merge = [&](const Tally& tally) {
+    std::vector<std::pair<int, int>> crushCells;
+    auto merge = [&](Tally& tally) {
         for (int c = 0; c < kConditions; ++c) {
             held[c] = held[c] || tally.held[c];
             people[c] += tally.people[c];
         }
         maxPressure_ = std::max(maxPressure_, tally.maxPressure);
+        crushCells.insert(crushCells.end(), tally.crushCells.begin(), tally.crushCells.end());
     };
     if (flat) {
-        const long count = static_cast<long>(f.size());
+        const std::size_t count = f.size();
         const int* const ix = f.ix.data();
         const int* const iy = f.iy.data();
-#pragma omp parallel if (parallelCheapLoop(f.size()))
+#pragma omp parallel if (parallelCheapLoop(count))
         {
+            // The thread's share of the entries, the same for its agents and its cells.
+            const std::size_t threads = static_cast<std::size_t>(omp_get_num_threads());
+            const std::size_t me = static_cast<std::size_t>(omp_get_thread_num());
+            const std::size_t from = count * me / threads, to = count * (me + 1) / threads;
             Tally tally;
+            agentsOf(from, to, me + 1 == threads, tally);
             Tile* tile = nullptr;
             int tileX = 0, tileY = 0;
-#pragma omp for schedule(static)
-            for (long kk = 0; kk < count; ++kk) {
-                const std::size_t k = static_cast<std::size_t>(kk);
+            for (std::size_t k = from; k < to; ++k) {
                 const int x = ix[k], y = iy[k];
                 // The tile of the last entry while the entries stay in it (a row of the field
                 // crosses a tile in kTileSide entries).
@@ -790,6 +834,7 @@ void SafetyRecorder::recordAt(const AgentStore& a, double t, const HealthLayer* 
         }
     } else {
         Tally tally;
+        agentsOf(0, f.size(), true, tally);
         for (std::size_t k = 0; k < f.size(); ++k) evaluate(cellAt(f.ix[k], f.iy[k]), k, tally);
         merge(tally);
     }
