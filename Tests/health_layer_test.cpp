@@ -14,6 +14,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <string_view>
 
 using namespace ch;
@@ -340,6 +341,48 @@ BOOST_AUTO_TEST_CASE(layer_is_thread_count_independent) {
         return healthCsv(sim.health());
     };
     BOOST_TEST(run(1) == run(2));
+}
+
+BOOST_AUTO_TEST_CASE(both_builds_of_the_end_of_step_give_the_same_bits) {
+    // endStep's per-agent part is compiled for any x86-64 (0) and with AVX2 (1), chosen when the
+    // program starts (crowdhealth-bench --isa switches it). Erratic, panicking walkers in contact
+    // turn at every step, so each record's heading change sums many angles of simd::angleOf: every
+    // record's bits must be the same from both builds, on one thread and on two.
+    auto run = [](int threads) {
+        std::vector<AgentSpec> agents;
+        for (int k = 0; k < 30; ++k) agents.push_back(agent(k, {0.7 * (k % 6), 0.7 * (k / 6)}, {20, 2}, 0.3, 1.2, 2.0));
+        ScenarioSpec s = fineScenario(agents, true, layer({{"erratic", 1.0}, {"panic", 0.3}, {"contagionRate", 1.0}}), 3);
+        Simulation sim(s);
+        sim.setThreads(threads);
+        while (!sim.finished()) sim.stepCoarse();
+        std::vector<std::uint64_t> bits;
+        for (const HealthRecord& r : sim.health().records())
+            for (const double v : {r.headingChange, r.movingTime, r.lastHeading.x(), r.lastHeading.y(), r.peakForce,
+                                   r.lastForce, r.dose, r.panic, static_cast<double>(r.id)}) {
+                std::uint64_t b;
+                std::memcpy(&b, &v, sizeof b);
+                bits.push_back(b);
+            }
+        return std::pair{bits, sim.health().records()};
+    };
+    const int before = HealthLayer::endStepPath();
+    BOOST_TEST(!HealthLayer::setEndStepPath(2));  // no such build
+    BOOST_TEST(!HealthLayer::setEndStepPath(-1));
+    BOOST_TEST(HealthLayer::endStepPath() == before);
+    BOOST_REQUIRE(HealthLayer::setEndStepPath(0));
+    const auto [generic, records] = run(1);
+    std::size_t turned = 0;
+    for (const HealthRecord& r : records) turned += r.headingChange > 0.1;
+    BOOST_TEST(turned >= 20u);  // the angles are there to compare
+    BOOST_TEST((run(2).first == generic));
+    if (!HealthLayer::setEndStepPath(1)) {
+        BOOST_TEST_MESSAGE("this CPU has no AVX2: only the generic build ran");
+    } else {
+        BOOST_TEST(HealthLayer::endStepPath() == 1);
+        BOOST_TEST((run(1).first == generic));
+        BOOST_TEST((run(2).first == generic));
+    }
+    HealthLayer::setEndStepPath(before);
 }
 
 BOOST_AUTO_TEST_CASE(health_csv_in_pieces_is_the_whole_text) {

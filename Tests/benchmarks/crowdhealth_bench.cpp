@@ -994,9 +994,11 @@ void usage() {
                  "  --write-umans-scene FILE  write that scene (end_time: --umans-time given before it) and stop\n"
                  "  --process-reps N  runs of the bare step and the program per scene in the process case (default 3)\n"
                  "  --no-fork       run cases in this process (peak memory then accumulates)\n"
-                 "  --isa NAME      the hand-vectorised loops' build to run (social forces' pair loop, the neighbour-list\n"
-                 "                  gather, the crowd field's scatter): generic, avx2 or avx512 (default: the best this\n"
-                 "                  CPU runs); the results are the same bits. Not the side-by-side case's program, nor the\n"
+                 "  --isa NAME      the hand-vectorised loops' build to run: generic, avx2 or avx512 (default: the best this\n"
+                 "                  CPU runs) for social forces' pair loop, the neighbour-list gather and the crowd field's\n"
+                 "                  scatter; the SPH and contact pair sums and UMANS' contact filter have no AVX2 build\n"
+                 "                  (generic below avx512), the health layer's end of step no AVX-512 build (avx2 from\n"
+                 "                  avx2 up). The results are the same bits. Not the side-by-side case's program, nor the\n"
                  "                  process case's, which pick their own.\n"
                  "  --stored-lists  store every neighbour list at each step even where only the per-agent calls read\n"
                  "                  them (by default those lists are gathered agent by agent; the same bits)\n";
@@ -1040,10 +1042,13 @@ int main(int argc, char** argv) {
                 std::cerr << "--isa: expected generic, avx2 or avx512, not '" << isa << "'\n";
                 return 2;
             }
-            // The dense pair sums and UMANS' contact filter have no AVX2 build: generic below AVX-512.
+            // The dense pair sums and UMANS' contact filter have no AVX2 build: generic below
+            // AVX-512. The health layer's end of step has no AVX-512 build: AVX2 from AVX2 up.
             const int wide = path == 2 ? 1 : 0;
+            const int health = path >= 1 ? 1 : 0;
             if (!ch::SocialForcesAvoidance::setPairLoopPath(path) || !ch::NeighbourLists::setGatherPath(path) ||
-                !ch::setCrowdFieldPath(path) || !ch::pairs::setPath(wide) || !ch::setNearEntriesPath(wide)) {
+                !ch::setCrowdFieldPath(path) || !ch::pairs::setPath(wide) || !ch::setNearEntriesPath(wide) ||
+                !ch::HealthLayer::setEndStepPath(health)) {
                 std::cerr << "--isa " << isa << ": this CPU does not run it\n";
                 return 2;
             }
@@ -1117,9 +1122,10 @@ int main(int argc, char** argv) {
                 load[0], load[1], load[2], omp_get_num_procs());
     static const char* const kIsa[] = {"generic", "avx2", "avx512"};
     std::printf("hand-vectorised loops: social forces' pair loop %s, neighbour-list gather %s, SPH and contact pair "
-                "sums %s, UMANS' contact filter %s, crowd field's scatter %s (--isa)\n",
+                "sums %s, UMANS' contact filter %s, crowd field's scatter %s, health layer's end of step %s (--isa)\n",
                 kIsa[ch::SocialForcesAvoidance::pairLoopPath()], kIsa[ch::NeighbourLists::gatherPath()],
-                kIsa[2 * ch::pairs::path()], kIsa[2 * ch::nearEntriesPath()], kIsa[ch::crowdFieldPath()]);
+                kIsa[2 * ch::pairs::path()], kIsa[2 * ch::nearEntriesPath()], kIsa[ch::crowdFieldPath()],
+                kIsa[ch::HealthLayer::endStepPath()]);
     std::printf("neighbour lists: %s\n", gStoredLists ? "stored at every step (--stored-lists)"
                                                       : "gathered agent by agent where no component reads them stored");
     std::printf("%-16s %8s %3s  %9s  %9s  %12s  %8s  %7s  %6s  %s\n", "scene", "agents", "thr", "ms/step", "min ms",

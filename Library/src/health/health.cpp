@@ -2,11 +2,13 @@
 #include "crowdhealth/health/health.h"
 
 #include "crowdhealth/io/output.h"
+#include "crowdhealth/core/cpu_features.h"
 #include "crowdhealth/core/parallel.h"
 #include "crowdhealth/core/rng.h"
 #include "crowdhealth/core/simd.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <numeric>
 #include <unordered_map>
@@ -379,12 +381,10 @@ void HealthLayer::steerPreferred(AgentStore& agents, const PointGrid& grid, doub
 // ~2 % of a 10k-agent social-forces run and of a dense SPH step; issue 20). Compiled twice, like
 // the safety grid's scatter: with AVX2 where the CPU has it (angleOf's comparisons and selects
 // are then whole-vector operations; in the SSE2 build GCC 12 compares lane by lane) and for any
-// x86-64 otherwise, chosen when the program starts; neither build fuses a multiply and an add,
-// so both give the same bits.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-__attribute__((target_clones("avx2", "default")))
-#endif
-bool HealthLayer::endStepBlocks(AgentStore& agents, double time, double dt, std::ptrdiff_t b0, std::ptrdiff_t b1) {
+// x86-64 otherwise, chosen when the program starts (endStepPath; crowdhealth-bench --isa);
+// neither build fuses a multiply and an add, so both give the same bits.
+[[gnu::always_inline]] inline bool HealthLayer::endStepBlocksBody(AgentStore& agents, double time, double dt,
+                                                                  std::ptrdiff_t b0, std::ptrdiff_t b1) {
     constexpr int L = simd::kLanes;
     const std::size_t n = agents.size();
     bool anyAbove = false;
@@ -452,6 +452,42 @@ bool HealthLayer::endStepBlocks(AgentStore& agents, double time, double dt, std:
             if (turning[l] != nullptr) turning[l]->headingChange += turn[l];
     }
     return anyAbove;
+}
+
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define CH_HEALTH_X86 1
+#endif
+
+namespace {
+/// endStepBlocks' build in use: 0 generic, 1 AVX2 (the best this CPU runs unless set).
+std::atomic<int> gEndStepPath{cpu::runsBuild(1) ? 1 : 0};
+}  // namespace
+
+bool HealthLayer::endStepBlocksGeneric(AgentStore& agents, double time, double dt, std::ptrdiff_t b0,
+                                       std::ptrdiff_t b1) {
+    return endStepBlocksBody(agents, time, dt, b0, b1);
+}
+
+#ifdef CH_HEALTH_X86
+__attribute__((target("avx2"))) bool HealthLayer::endStepBlocksAvx2(AgentStore& agents, double time, double dt,
+                                                                    std::ptrdiff_t b0, std::ptrdiff_t b1) {
+    return endStepBlocksBody(agents, time, dt, b0, b1);
+}
+#endif
+
+bool HealthLayer::endStepBlocks(AgentStore& agents, double time, double dt, std::ptrdiff_t b0, std::ptrdiff_t b1) {
+#ifdef CH_HEALTH_X86
+    if (gEndStepPath.load(std::memory_order_relaxed) == 1) return endStepBlocksAvx2(agents, time, dt, b0, b1);
+#endif
+    return endStepBlocksGeneric(agents, time, dt, b0, b1);
+}
+
+int HealthLayer::endStepPath() { return gEndStepPath.load(); }
+
+bool HealthLayer::setEndStepPath(int path) {
+    if (path < 0 || path > 1 || !cpu::runsBuild(path)) return false;
+    gEndStepPath.store(path);
+    return true;
 }
 
 void HealthLayer::endStep(AgentStore& agents, double time, double dt) {

@@ -181,6 +181,11 @@ public:
     /// The largest body radius a policy's falls can give (0 without falls): the neighbour range
     /// must cover it.
     static double largestFallenRadius(const ScenarioSpec& spec);
+    /// The build of endStep's per-agent part in use: 0 generic (SSE2 on x86-64), 1 AVX2, the
+    /// same bits; the best this CPU runs unless setEndStepPath chose (which returns false and
+    /// changes nothing for a build this CPU cannot run). For crowdhealth-bench --isa.
+    static int endStepPath();
+    static bool setEndStepPath(int path);
     /// Active agent i (AgentStore index) leaves at its goal at `time` (called before removal).
     void markExit(const AgentStore& agents, std::size_t i, double time);
     /// Active agent i has just entered the world.
@@ -233,8 +238,12 @@ private:
     const HealthRecord& record(const AgentStore& agents, std::size_t i) const { return recordOf(agents, i); }
 
     /// endStep's per-agent part for the blocks [b0, b1) of simd::kLanes agents (health.cpp);
-    /// returns whether any of their agents is above its crush threshold.
+    /// returns whether any of their agents is above its crush threshold. Runs the build that
+    /// endStepPath() names; the builds share endStepBlocksBody.
     bool endStepBlocks(AgentStore& agents, double time, double dt, std::ptrdiff_t b0, std::ptrdiff_t b1);
+    bool endStepBlocksGeneric(AgentStore& agents, double time, double dt, std::ptrdiff_t b0, std::ptrdiff_t b1);
+    bool endStepBlocksAvx2(AgentStore& agents, double time, double dt, std::ptrdiff_t b0, std::ptrdiff_t b1);
+    bool endStepBlocksBody(AgentStore& agents, double time, double dt, std::ptrdiff_t b0, std::ptrdiff_t b1);
 
     /// Record r's CareRecord, made (empty) when it has none. Serial code only: it may grow care_.
     CareRecord& careFor(HealthRecord& r);
