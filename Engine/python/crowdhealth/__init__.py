@@ -62,7 +62,10 @@ class Scenario:
         self._policies = {}    # id -> [attrs, [steps], crowd_health or None, origin]
         self._agents = []      # (xml, origin)
         self._output = {}
-        self._ramps = []       # (xml, origin)
+        self._ramps = []       # (xml, origin): <Ramp> and <PanicEvent>, in the order given
+        self._safety = None    # (xml, origin)
+        self._measurement = None  # [attrs, origin] of <Measurement>, or None
+        self._measures = []    # (xml, origin): its <Line> and <Area> children
 
     # ---- world and obstacles ----------------------------------------------------------------
     def world(self, type="infinite", width=None, height=None, xmin=None, xmax=None, ymin=None, ymax=None):
@@ -147,6 +150,42 @@ class Scenario:
                                                         start=start, end=end)), _caller()))
         return self
 
+    def panic_event(self, time, x, y, radius, strength=None):
+        """<PanicEvent>: at `time` (s) every agent within `radius` (m) of (x, y) panics at least
+        `strength` (0..1, default 1); needs a policy with crowd_health to change motion."""
+        self._ramps.append(("<PanicEvent%s/>" % _attrs(dict(time=time, x=x, y=y, radius=radius, strength=strength)),
+                            _caller()))
+        return self
+
+    # ---- safety and measurement -------------------------------------------------------------
+    def safety(self, **thresholds):
+        """<Safety>: the safety recorder's grid and the verdict's thresholds, by their XML names
+        (cell_size, density_caution, density_dangerous, ...; docs/xml-reference.md lists them).
+        A second call replaces the first."""
+        self._safety = ("<Safety%s/>" % _attrs(thresholds), _caller())
+        return self
+
+    def measurement(self, interval=None):
+        """<Measurement>: the interval (s) of flows.csv and areas.csv rows; line() and area() add
+        to it (they open it with the default interval when this is not called)."""
+        self._measurement = [dict(interval=interval), _caller()]
+        return self
+
+    def line(self, id, x1, y1, x2, y2):
+        """<Line> of <Measurement>: counts the people crossing from (x1, y1) to (x2, y2), forward =
+        towards the right-hand side seen from the first end looking at the second."""
+        self._measures.append(("<Line%s/>" % _attrs(dict(id=id, x1=x1, y1=y1, x2=x2, y2=y2)), _caller()))
+        return self
+
+    def area(self, id, xmin=None, xmax=None, ymin=None, ymax=None, points=None):
+        """<Area> of <Measurement>: a rectangle (xmin, xmax, ymin, ymax) or a polygon (points: a list
+        of (x, y)); density, speed, specific flow and level of service in areas.csv."""
+        inner = "" if points is None else "".join("<Point%s/>" % _attrs(dict(x=float(x), y=float(y)))
+                                                  for x, y in points)
+        attrs = _attrs(dict(id=id, xmin=xmin, xmax=xmax, ymin=ymin, ymax=ymax))
+        self._measures.append((("<Area%s>%s</Area>" % (attrs, inner)) if inner else "<Area%s/>" % attrs, _caller()))
+        return self
+
     def output(self, metrics_interval=None, trajectories=None, trajectory_interval=None, flow_first=None,
                flow_last=None):
         """<Output>: metrics interval (s), trajectory files (none, txt, bin, umans, both), ..."""
@@ -180,6 +219,13 @@ class Scenario:
             out.append(("</Schedule>", None))
         if any(v is not None for v in self._output.values()):
             out.append(("<Output%s/>" % _attrs(self._output), getattr(self, "_output_origin", None)))
+        if self._safety is not None:
+            out.append(self._safety)
+        if self._measurement is not None or self._measures:
+            attrs, origin = self._measurement if self._measurement is not None else ({}, None)
+            out.append(("<Measurement%s>" % _attrs(attrs), origin))
+            out.extend(self._measures)
+            out.append(("</Measurement>", origin))
         out.append(("<Agents>", None))
         out.extend(self._agents)
         out.append(("</Agents>", None))

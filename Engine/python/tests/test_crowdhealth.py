@@ -11,6 +11,9 @@ import re
 import subprocess
 import sys
 
+import contextlib
+import warnings
+
 import numpy as np
 import pytest
 
@@ -45,6 +48,13 @@ CROSSING_XML = """<?xml version="1.0" encoding="utf-8"?>
 \t</Agents>
 </Simulation>
 """
+
+
+@contextlib.contextmanager
+def warnings_as_errors():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", crowdhealth.ScenarioWarning)
+        yield
 
 
 def crossing_in_code():
@@ -222,6 +232,71 @@ def test_scenario_in_code_equals_the_xml_file(tmp_path):
     assert (prog / "metrics.csv").read_bytes() == (tmp_path / "b" / "metrics.csv").read_bytes()
 
 
+# The crossing with a panic event, safety thresholds and measurement lines and areas, by hand.
+CROSSING_MEASURED_XML = CROSSING_XML.replace(
+    "\t<Output metrics_interval=\"0.5\"/>\n",
+    "\t<Schedule><PanicEvent time=\"2\" x=\"5\" y=\"2\" radius=\"4\" strength=\"0.8\"/></Schedule>\n"
+    "\t<Output metrics_interval=\"0.5\"/>\n"
+    "\t<Safety cell_size=\"0.5\" density_caution=\"0.3\"/>\n"
+    "\t<Measurement interval=\"0.5\">\n"
+    "\t\t<Line id=\"middle\" x1=\"5\" y1=\"0\" x2=\"5\" y2=\"4\"/>\n"
+    "\t\t<Area id=\"west\" xmin=\"0\" xmax=\"3\" ymin=\"0\" ymax=\"4\"/>\n"
+    "\t\t<Area id=\"east\"><Point x=\"7\" y=\"0\"/><Point x=\"10\" y=\"0\"/><Point x=\"10\" y=\"4\"/>"
+    "<Point x=\"7\" y=\"4\"/></Area>\n"
+    "\t</Measurement>\n")
+
+
+def crossing_measured_in_code():
+    s = crossing_in_code()
+    s.panic_event(2, 5, 2, 4, strength=0.8)
+    s.safety(cell_size=0.5, density_caution=0.3)
+    s.measurement(interval=0.5)
+    s.line("middle", 5, 0, 5, 4)
+    s.area("west", xmin=0, xmax=3, ymin=0, ymax=4)
+    s.area("east", points=[(7, 0), (10, 0), (10, 4), (7, 4)])
+    return s
+
+
+def test_panic_safety_and_measurement_in_code_equal_the_xml_file(tmp_path):
+    assert "<PanicEvent" in CROSSING_MEASURED_XML and "<Measurement" in CROSSING_MEASURED_XML
+    path = tmp_path / "measured.xml"
+    path.write_text(CROSSING_MEASURED_XML)
+    a = crowdhealth.Simulation(path)
+    b = crowdhealth.Simulation(crossing_measured_in_code())
+    a.run(), b.run()
+    assert np.array_equal(a.positions(), b.positions())
+    a.write_outputs(str(tmp_path / "a"))
+    b.write_outputs(str(tmp_path / "b"))
+    for name in ["metrics.csv", "health.csv", "heatmap.csv", "flows.csv", "areas.csv"]:
+        assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes(), name
+    flows = (tmp_path / "b" / "flows.csv").read_text()
+    assert "middle" in flows and "west" in (tmp_path / "b" / "areas.csv").read_text()
+    heat = (tmp_path / "b" / "heatmap.csv").read_text().splitlines()
+    assert heat[1].split(",")[0] in ("-0.25", "0.25", "0.75")  # half-metre cells: centres at odd quarters
+    # the panic event reached someone (the layer records a peak panic)
+    health = (tmp_path / "b" / "health.csv").read_text().splitlines()
+    col = health[0].split(",").index("peak_panic")
+    assert max(float(r.split(",")[col]) for r in health[1:]) >= 0.8
+    # and without the three, the run differs (the builder does write them)
+    c = crowdhealth.Simulation(crossing_in_code())
+    c.run()
+    c.write_outputs(str(tmp_path / "c"))
+    assert (tmp_path / "c" / "health.csv").read_bytes() != (tmp_path / "b" / "health.csv").read_bytes()
+    assert not (tmp_path / "c" / "flows.csv").exists()
+
+
+def test_safety_and_measurement_errors_name_the_builder_call():
+    s = crossing_in_code().safety(cell_size=-1)
+    with pytest.raises(crowdhealth.ScenarioError) as e:
+        crowdhealth.Simulation(s)
+    assert "test_crowdhealth.py:%d:" % (sys._getframe().f_lineno - 3) in str(e.value)
+    assert "cell_size" in str(e.value)
+    s = crossing_in_code().line("door", 1, 1, 1, 1)  # both ends the same
+    with pytest.raises(crowdhealth.ScenarioError) as e:
+        crowdhealth.Simulation(s)
+    assert "test_crowdhealth.py:%d:" % (sys._getframe().f_lineno - 3) in str(e.value)
+
+
 def test_scenario_in_code_is_checked_by_the_loader():
     s = crossing_in_code()
     s.agent(5, 2, goal=(1, 1), policy=3)  # no policy 3
@@ -286,6 +361,26 @@ def test_the_docs_example_runs(tmp_path):
                        capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stdout + r.stderr
     assert (tmp_path / "out" / "metrics.csv").exists()
+
+
+def test_the_docs_builder_example_loads_and_runs(tmp_path):
+    # The Scenario block of docs/python.md, as written there (its ramp once named a parameter that
+    # cannot be ramped, and the page's example went on being refused unnoticed).
+    text = (SRC / "docs" / "python.md").read_text()
+    m = re.search(r"<!-- builder example: run by Engine/python/tests -->\s*```python\n(.*?)```", text, re.S)
+    assert m, "docs/python.md lost its builder example"
+    scope = {"np": np, "crowdhealth": crowdhealth}
+    with warnings_as_errors():
+        exec(m.group(1), scope)
+    sim = scope["sim"]
+    sim.run()
+    sim.write_outputs(str(tmp_path / "out"))
+    for name in ["metrics.csv", "heatmap.csv", "flows.csv", "areas.csv"]:
+        assert (tmp_path / "out" / name).exists(), name
+    # everyone walks east through the line "middle" (forward: towards its right-hand side, east)
+    rows = [r.split(",") for r in (tmp_path / "out" / "flows.csv").read_text().splitlines()[1:]]
+    assert sum(int(r[3]) for r in rows if r[1] == "middle") == 3
+    assert sum(int(r[4]) for r in rows if r[1] == "middle") == 0
 
 
 @pytest.mark.parametrize("example", sorted(p.name for p in (SRC / "Examples" / "python").glob("*.py")))
