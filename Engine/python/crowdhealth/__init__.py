@@ -35,6 +35,11 @@ def _attrs(d):
     return "".join(" %s=%s" % (k, quoteattr(_number(v))) for k, v in d.items() if v is not None)
 
 
+def _points(points):
+    """<Point x y/> children of a polygon: a list of (x, y) in m."""
+    return "".join("<Point%s/>" % _attrs(dict(x=float(x), y=float(y))) for x, y in points)
+
+
 def _caller():
     """file:line of the user's call into the builder (for error messages)."""
     here = os.path.dirname(os.path.abspath(__file__))
@@ -78,8 +83,7 @@ class Scenario:
 
     def obstacle(self, points):
         """A closed polygon: a list of (x, y) in m."""
-        pts = "".join("<Point%s/>" % _attrs(dict(x=float(x), y=float(y))) for x, y in points)
-        self._obstacles.append(("<Obstacle>%s</Obstacle>" % pts, _caller()))
+        self._obstacles.append(("<Obstacle>%s</Obstacle>" % _points(points), _caller()))
         return self
 
     def box(self, x, y, width, height):
@@ -180,8 +184,7 @@ class Scenario:
     def area(self, id, xmin=None, xmax=None, ymin=None, ymax=None, points=None):
         """<Area> of <Measurement>: a rectangle (xmin, xmax, ymin, ymax) or a polygon (points: a list
         of (x, y)); density, speed, specific flow and level of service in areas.csv."""
-        inner = "" if points is None else "".join("<Point%s/>" % _attrs(dict(x=float(x), y=float(y)))
-                                                  for x, y in points)
+        inner = "" if points is None else _points(points)
         attrs = _attrs(dict(id=id, xmin=xmin, xmax=xmax, ymin=ymin, ymax=ymax))
         self._measures.append((("<Area%s>%s</Area>" % (attrs, inner)) if inner else "<Area%s/>" % attrs, _caller()))
         return self
