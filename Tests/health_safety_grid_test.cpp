@@ -15,8 +15,11 @@
 
 #include <omp.h>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <cstring>
+#include <iomanip>
 #include <map>
 #include <random>
 #include <sstream>
@@ -428,4 +431,222 @@ BOOST_AUTO_TEST_CASE(a_copied_recorder_keeps_its_cells_and_goes_on_alone) {
     SafetyRecorder assigned;
     assigned = copy;
     BOOST_TEST(assigned.heatmapCsv() == r.heatmapCsv());
+}
+
+namespace {
+/// One cell as the recorder follows it, written out here one cell at a time from the definitions
+/// (safety.h): the peak density, the seconds above each density level and the crowd pressure's,
+/// the worst of Fruin's levels held for minDuration without a break, and the time averages of the
+/// crowd pressure.
+struct ReferenceCell {
+    double maxDensity = 0;
+    double seconds[4] = {0, 0, 0, 0};  ///< above caution, dangerous, critical; turbulent
+    double run[5] = {0, 0, 0, 0, 0};   ///< seconds level B + l (or worse) has held without a break
+    double lastSeen = std::numeric_limits<double>::quiet_NaN();     ///< time of the last record here
+    double lastSampled = std::numeric_limits<double>::quiet_NaN();  ///< … with someone within reach
+    char worst = 'A';
+    double meanDensity = 0, meanSquaredSpeed = 0;
+    Vec2 meanVelocity{0, 0};
+};
+
+/// When a condition first held anywhere, for how many seconds, and the most people in its cells
+/// at once.
+struct ReferenceTimeline {
+    double first = std::numeric_limits<double>::quiet_NaN(), seconds = 0;
+    std::size_t people = 0;
+};
+
+struct Reference {
+    std::map<std::pair<int, int>, ReferenceCell> cells;
+    ReferenceTimeline timeline[4];
+};
+
+/// The record at time t (the previous at `previous`, NaN for none) of field f; returns the
+/// largest crowd pressure of the record.
+double referenceRecord(Reference& ref, const CrowdField& f, const SafetyThresholds& th, double t, double previous) {
+    const double dt = previous == previous ? t - previous : 0.0;
+    const double alpha = std::min(1.0, dt / th.pressureWindow);
+    const double levels[3] = {th.densityCaution, th.densityDangerous, th.densityCritical};
+    double largest = 0;
+    bool held[4] = {false, false, false, false};
+    std::size_t people[4] = {0, 0, 0, 0};
+    const auto holds = [&](ReferenceCell& c, int condition, std::size_t k) {
+        c.seconds[condition] += dt;
+        held[condition] = true;
+        people[condition] += static_cast<std::size_t>(f.people[k]);
+    };
+    for (std::size_t k = 0; k < f.size(); ++k) {
+        ReferenceCell& c = ref.cells[{f.iy[k], f.ix[k]}];
+        const double d = f.density[k];
+        c.maxDensity = std::max(c.maxDensity, d);
+        const int level = fruinLevel(d) - 'A';
+        for (int l = 1; l <= 5; ++l) {
+            c.run[l - 1] = level >= l && c.lastSeen == previous ? c.run[l - 1] + dt : 0.0;
+            if (level >= l && c.run[l - 1] >= th.minDuration) c.worst = std::max(c.worst, static_cast<char>('A' + l));
+        }
+        c.lastSeen = t;
+        for (int l = 0; l < 3; ++l)
+            if (d > levels[l]) holds(c, l, k);
+        double pressure = 0;
+        if (f.weighted[k]) {
+            const Vec2 v = f.velocity[k];
+            const double w = c.lastSampled == previous ? alpha : 1.0;
+            c.meanDensity += w * (d - c.meanDensity);
+            c.meanVelocity += w * (v - c.meanVelocity);
+            c.meanSquaredSpeed += w * (v.squaredNorm() - c.meanSquaredSpeed);
+            c.lastSampled = t;
+            pressure = c.meanDensity * std::max(0.0, c.meanSquaredSpeed - c.meanVelocity.squaredNorm());
+            largest = std::max(largest, pressure);
+        }
+        if (pressure > th.crowdPressureCritical && c.meanDensity > th.densityCaution) holds(c, 3, k);
+    }
+    for (int c = 0; c < 4; ++c) {
+        ReferenceTimeline& tl = ref.timeline[c];
+        if (!held[c]) continue;
+        if (!(tl.first == tl.first)) tl.first = t;
+        tl.seconds += dt;
+        tl.people = std::max(tl.people, people[c]);
+    }
+    return largest;
+}
+
+/// heatmap.csv of the reference cells (no contact, no crush): the rectangle of the cells when it
+/// is at most 4M cells, else the cells themselves.
+std::string referenceHeatmap(const Reference& ref, double size) {
+    std::string out =
+        "x,y,max_density,max_contact_accel,seconds_above_density_threshold,seconds_above_crush_threshold,worst_los\n";
+    const auto row = [&](int x, int y, const ReferenceCell& c) {
+        for (const double v : {(x + 0.5) * size, (y + 0.5) * size, c.maxDensity, 0.0, c.seconds[1], 0.0}) {
+            appendNumber(out, v);
+            out += ',';
+        }
+        out += c.worst;
+        out += '\n';
+    };
+    const auto& cells = ref.cells;
+    int x0 = cells.begin()->first.second, x1 = x0;
+    for (const auto& [key, c] : cells) x0 = std::min(x0, key.second), x1 = std::max(x1, key.second);
+    const int y0 = cells.begin()->first.first, y1 = cells.rbegin()->first.first;
+    if ((static_cast<double>(x1) - x0 + 1) * (static_cast<double>(y1) - y0 + 1) > (1 << 22)) {
+        for (const auto& [key, c] : cells) row(key.second, key.first, c);
+        return out;
+    }
+    const ReferenceCell empty;
+    for (int y = y0; y <= y1; ++y)
+        for (int x = x0; x <= x1; ++x) {
+            const auto it = cells.find({y, x});
+            row(x, y, it == cells.end() ? empty : it->second);
+        }
+    return out;
+}
+
+/// "level duration people first x y xmin xmax ymin ymax" of a reason, each number to the last bit.
+std::string placeOf(const VerdictReason& r) {
+    std::ostringstream out;
+    out << r.level << std::setprecision(17);
+    for (const double v : {r.duration, static_cast<double>(r.people), r.firstTime, r.x, r.y, r.xmin, r.xmax, r.ymin,
+                           r.ymax})
+        out << ' ' << v;
+    return out.str();
+}
+
+/// The same for the reference's condition c: its timeline, and the centroid of its cells weighted
+/// by their seconds (in the heat map's order) and their bounds.
+std::string referencePlace(const Reference& ref, int c, const char* level, double size) {
+    VerdictReason r;
+    r.level = level;
+    r.duration = ref.timeline[c].seconds;
+    r.people = ref.timeline[c].people;
+    r.firstTime = ref.timeline[c].first;
+    double sw = 0, sx = 0, sy = 0;
+    bool any = false;
+    for (const auto& [key, cell] : ref.cells) {
+        const double s = cell.seconds[c];
+        if (!(s > 0)) continue;
+        const double x = (key.second + 0.5) * size, y = (key.first + 0.5) * size, h = 0.5 * size;
+        r.xmin = any ? std::min(r.xmin, x - h) : x - h;
+        r.xmax = any ? std::max(r.xmax, x + h) : x + h;
+        r.ymin = any ? std::min(r.ymin, y - h) : y - h;
+        r.ymax = any ? std::max(r.ymax, y + h) : y + h;
+        any = true;
+        sw += s, sx += s * x, sy += s * y;
+    }
+    if (sw > 0) r.x = sx / sw, r.y = sy / sw;
+    return placeOf(r);
+}
+}  // namespace
+
+BOOST_AUTO_TEST_CASE(every_cell_follows_its_definition_record_by_record_in_every_build) {
+    // Two dense crowds 5 m apart (Fruin's levels up to F, densities above the dangerous level,
+    // cells between them with nobody within reach) with scattered velocities (crowd pressure)
+    // stepping back and forth by 0.75 m, the second by 2.5 m more: the cells at the edges of the
+    // field leave it and come back, and cells at the gap's edges fall out of everyone's reach and
+    // come back at once at Fruin's level B or worse. The recorder updates cells eight at a time, and
+    // a block at an edge of the field has lanes outside it, which must be left as they were.
+    // Then half of it jumps 3 km away (the field's cells no longer a rectangle) and 2000 km away
+    // (the cells in the map). Against the cells followed one at a time here, in every build this
+    // CPU runs, on 1 and 3 threads: every record's largest crowd pressure, the whole heat map, and
+    // the verdict's density and crowd-pressure reasons (when, how long, how many, where); and with
+    // each lower density level in turn the highest that held (thresholds raised), once.
+    const int before = crowdFieldPath(), threads = omp_get_max_threads();
+    const Simulation empty(scenario({}, {policy(0, OptimisationMethod::Gradient,
+                                                {component("GoalReachingForce", {{"range", 0.0}})})}));
+    const std::vector<int> paths = scatterPaths();
+    for (const int top : {2, 1, 0})
+        for (const int path : paths)
+            for (const int team : {1, 3}) {
+                if (top < 2 && (path != paths.back() || team != 1)) continue;  // the lower levels once
+                SafetyThresholds th;
+                th.cellSize = 0.5;
+                th.minDuration = 0.1;     // one record: a cell back in the field must start its runs again
+                th.pressureWindow = 0.5;  // each record weighs 0.2 in the averages
+                if (top < 2) th.densityCritical = 1e3;
+                if (top < 1) th.densityDangerous = 1e3;
+                BOOST_REQUIRE(setCrowdFieldPath(path));
+                omp_set_num_threads(team);
+                SafetyRecorder r(th);
+                Reference ref;
+                AgentStore a = randomCrowd(800, 0.13, -0.41, 11, 9, 17);
+                for (std::size_t i = 0; i < a.size(); i += 3) a.pos[i] += Vec2(16, 0);  // a gap of 5 m
+                double t = 0, previous = std::numeric_limits<double>::quiet_NaN();
+                std::size_t pressures = 0, positive = 0;
+                for (int k = 0; k < 36; ++k) {
+                    if (k == 20)
+                        for (std::size_t i = 0; i < a.size(); i += 2) a.pos[i] += Vec2(3000, 3000);
+                    if (k == 28)
+                        for (std::size_t i = 1; i < a.size(); i += 2) a.pos[i] += Vec2(2.0e6, -1.5e6);
+                    const double step = k % 2 == 0 ? 0.75 : -0.75;
+                    for (std::size_t i = 0; i < a.size(); ++i)
+                        a.pos[i] += Vec2(step + 0.05 + (i % 3 == 0 ? 3.3 * step : 0.0), 0.6 * step);
+                    r.recordCrowd(a, t);
+                    const CrowdField f = crowdField(a, th.cellSize, th.gaussianRadius);
+                    const double want = referenceRecord(ref, f, th, t, previous);
+                    pressures += bitsOf(r.maxPressure()) == bitsOf(want);
+                    positive += want > 0;
+                    previous = t;
+                    t += 0.1;
+                }
+                const std::string label = "top level " + std::to_string(top) + ", build " + std::to_string(path) +
+                                          ", " + std::to_string(team) + " threads";
+                BOOST_TEST(pressures == 36u, label);
+                BOOST_TEST(positive > 30u, label);
+                const std::string want = referenceHeatmap(ref, th.cellSize);
+                BOOST_TEST((r.heatmapCsv() == want), label);
+                // The crowd reached level F, the top density level and crowd turbulence somewhere.
+                BOOST_TEST(want.find(",F\n") != std::string::npos, label);
+                BOOST_TEST(std::count(want.begin(), want.end(), '\n') > 1000, label);
+                const Verdict v = r.verdict(empty);
+                const char* const levels[] = {"caution", "dangerous", "critical"};
+                std::string density, pressure;
+                for (const VerdictReason& reason : v.reasons) {
+                    if (reason.measure == "density") density = placeOf(reason);
+                    if (reason.measure == "crowd_pressure") pressure = placeOf(reason);
+                }
+                BOOST_TEST(density == referencePlace(ref, top, levels[top], th.cellSize), label);
+                BOOST_TEST(pressure == referencePlace(ref, 3, "dangerous", th.cellSize), label);
+                BOOST_TEST(ref.timeline[top].seconds >= 1.0, label);
+                BOOST_TEST(ref.timeline[3].seconds >= 1.0, label);
+            }
+    omp_set_num_threads(threads);
+    setCrowdFieldPath(before);
 }

@@ -995,8 +995,8 @@ void usage() {
                  "  --process-reps N  runs of the bare step and the program per scene in the process case (default 3)\n"
                  "  --no-fork       run cases in this process (peak memory then accumulates)\n"
                  "  --isa NAME      the hand-vectorised loops' build to run: generic, avx2 or avx512 (default: the best this\n"
-                 "                  CPU runs) for social forces' pair loop, the neighbour-list gather and the crowd field's\n"
-                 "                  scatter; the SPH and contact pair sums and UMANS' contact filter have no AVX2 build\n"
+                 "                  CPU runs) for social forces' pair loop, the neighbour-list gather, the crowd field's\n"
+                 "                  scatter and the safety recorder's cells; the SPH and contact pair sums and UMANS' contact filter have no AVX2 build\n"
                  "                  (generic below avx512), the health layer's end of step no AVX-512 build (avx2 from\n"
                  "                  avx2 up). The results are the same bits. Not the side-by-side case's program, nor the\n"
                  "                  process case's, which pick their own.\n"
@@ -1122,7 +1122,8 @@ int main(int argc, char** argv) {
                 load[0], load[1], load[2], omp_get_num_procs());
     static const char* const kIsa[] = {"generic", "avx2", "avx512"};
     std::printf("hand-vectorised loops: social forces' pair loop %s, neighbour-list gather %s, SPH and contact pair "
-                "sums %s, UMANS' contact filter %s, crowd field's scatter %s, health layer's end of step %s (--isa)\n",
+                "sums %s, UMANS' contact filter %s, crowd field's scatter and safety cells %s, health layer's end of step %s "
+                "(--isa)\n",
                 kIsa[ch::SocialForcesAvoidance::pairLoopPath()], kIsa[ch::NeighbourLists::gatherPath()],
                 kIsa[2 * ch::pairs::path()], kIsa[2 * ch::nearEntriesPath()], kIsa[ch::crowdFieldPath()],
                 kIsa[ch::HealthLayer::endStepPath()]);

@@ -307,6 +307,201 @@ inline int fruinIndex(double density) {
     return level;
 }
 
+/// The numbers of one record that every cell's update reads (SafetyRecorder::recordAt).
+struct CellRecord {
+    double previous = 0;  ///< the last record's time (NaN at the first)
+    double dt = 0;        ///< t − previous (0 at the first record)
+    double t = 0, alpha = 0;
+    double minDuration = 0, pressureCritical = 0, densityCaution = 0;
+    double levels[3] = {0, 0, 0};  ///< density caution, dangerous, critical
+    bool withContact = false;      ///< the contact maxima count (a record with the health layer)
+};
+
+/// A block's inputs from the crowd field, lane l at index l of each.
+struct BlockInput {
+    const double* density = nullptr;
+    const double* contact = nullptr;  ///< read only when CellRecord::withContact
+    const Vec2* velocity = nullptr;
+    const unsigned char* weighted = nullptr;
+    const int* people = nullptr;
+};
+
+/// What a share of the cells adds up, lane by lane (each exact in any order): per condition the
+/// people in the cells where it held (whole numbers in doubles, exact below 2^53) and 1 where it
+/// held at all, and the largest pressure.
+struct BlockTally {
+    double people[4][8] = {};
+    double held[4][8] = {};
+    double maxPressure[8] = {};
+};
+
+/// The mask of V's comparisons (simd.h: all-ones lanes, or an AVX-512 mask register).
+template <class V>
+using LaneMask = decltype(simd::lt(V{}, V{}));
+
+/// Bits [0, W) of `bits` as a mask of V (bit l: lane l).
+template <class V>
+[[gnu::always_inline]] inline LaneMask<V> lanesOf(unsigned bits) {
+    using M = LaneMask<V>;
+    if constexpr (sizeof(M) == 1) {  // AVX-512: a mask register
+        return static_cast<M>(bits);
+    } else {
+        M m;
+        for (int l = 0; l < static_cast<int>(sizeof(V) / sizeof(double)); ++l)
+            m[l] = -static_cast<std::int64_t>((bits >> l) & 1u);
+        return m;
+    }
+}
+
+/// One record's update of the cells of a block (SafetyRecorder::CellBlock), the lanes of `mask`
+/// only (all of them when Full), in vectors V of two, four or eight lanes: a cell's maxima, the
+/// runs of Fruin's levels, the seconds above the density levels, the time averages of the crowd
+/// pressure and the seconds above its level. Each lane is the operations of the update one cell at
+/// a time that it replaced (issue 20), in the same order with the same roundings and no fused
+/// multiply-add (the builds below), so a cell holds the same bits whatever its lane and the
+/// build. std::max(a, b) is written sel(lt(a, b), b, a).
+template <class V, bool Full, class Block>
+[[gnu::always_inline]] inline void updateCells(Block& b, const BlockInput& in, unsigned mask, const CellRecord& r,
+                                               BlockTally& tally) {
+    using simd::eq;
+    using simd::le;
+    using simd::lt;
+    using simd::sel;
+    using M = LaneMask<V>;
+    using Index = simd::MaskOf<V>;  // 64-bit integers, one per lane
+    constexpr int W = static_cast<int>(sizeof(V) / sizeof(double));
+    const auto load = [](const double* p) {
+        V v;
+        std::memcpy(&v, p, sizeof v);
+        return v;
+    };
+    const auto put = [](double* p, V v) { std::memcpy(p, &v, sizeof v); };
+    const V dt = simd::splatAs<V>(r.dt), zero = V{}, one = simd::splatAs<V>(1.0);
+    const M all = simd::allLanes(V{});
+    // A cell's runs and averages go on where it was evaluated at the previous record (`previous`
+    // is NaN at the first record, equal to no time; later records have dt > 0).
+    const V previous = simd::splatAs<V>(r.previous), now = simd::splatAs<V>(r.t);
+    Index even, odd;  // the x and y of W interleaved Vec2s
+    for (int l = 0; l < W; ++l) even[l] = 2 * l, odd[l] = 2 * l + 1;
+    for (int at = 0; at < 8; at += W) {
+        const M on = Full ? all : lanesOf<V>(mask >> at);
+        // Field p of the block in the lanes of m (and of the mask) set to v, the others as they were.
+        const auto store = [&](double* p, V v, M m) { put(p + at, sel(Full ? m : M(m & on), v, load(p + at))); };
+        // A condition held in the lanes of m: its people and that it held, in the tally.
+        const auto count = [&](int c, M m, V people) {
+            put(tally.people[c] + at, load(tally.people[c] + at) + sel(m, people, zero));
+            put(tally.held[c] + at, sel(m, one, load(tally.held[c] + at)));
+        };
+        const V d = load(in.density + at);
+        const V maxD = load(b.maxDensity + at);
+        store(b.maxDensity, sel(lt(maxD, d), d, maxD), all);
+        if (r.withContact) {
+            const V c = load(in.contact + at), maxC = load(b.maxContact + at);
+            store(b.maxContact, sel(lt(maxC, c), c, maxC), all);
+        }
+        // Fruin's levels: how long each has held here without a break (a cell missed by a record
+        // — nobody within reach — starts again). The runs never grow with the level (each level's
+        // run holds whenever a worse one's does), so the levels that held for minDuration are
+        // B … B + m − 1, and m counts them. Level l (B = 1) or worse holds above the l-th of
+        // fruinBounds' ascending bounds.
+        const M continues = eq(load(b.losAt + at), previous);
+        V lasted = zero;
+        for (int l = 1; l <= 5; ++l) {
+            const M level = lt(simd::splatAs<V>(fruinBounds.bounds[l - 1]), d);
+            const V run = sel(M(level & continues), load(b.losRun[l - 1] + at) + dt, zero);
+            store(b.losRun[l - 1], run, all);
+            lasted += sel(M(level & le(simd::splatAs<V>(r.minDuration), run)), one, zero);
+        }
+        for (int l = 0; l < W; ++l)
+            if (Full || ((mask >> (at + l)) & 1u)) {
+                char& worst = b.worstLos[at + l];
+                worst = std::max(worst, static_cast<char>('A' + static_cast<int>(lasted[l])));
+            }
+        store(b.losAt, now, all);
+        V people;
+        for (int l = 0; l < W; ++l) people[l] = static_cast<double>(in.people[at + l]);
+        for (int l = 0; l < 3; ++l) {
+            const M above = Full ? lt(simd::splatAs<V>(r.levels[l]), d) : M(lt(simd::splatAs<V>(r.levels[l]), d) & on);
+            store(b.seconds[l], load(b.seconds[l] + at) + dt, above);
+            count(l, above, people);
+        }
+        // Crowd pressure: the variance in time of the local velocity at this place, times the
+        // local density (both averaged over the window). A cell with no agent within reach has no
+        // local velocity; its averages restart when agents come back.
+        V weightedLanes;
+        for (int l = 0; l < W; ++l) weightedLanes[l] = in.weighted[at + l];
+        const M weighted = Full ? lt(zero, weightedLanes) : M(lt(zero, weightedLanes) & on);
+        const V v0 = load(reinterpret_cast<const double*>(in.velocity + at));
+        const V v1 = load(reinterpret_cast<const double*>(in.velocity + at) + W);
+        const V vx = __builtin_shuffle(v0, v1, even), vy = __builtin_shuffle(v0, v1, odd);
+        const M sampled = eq(load(b.sampledAt + at), previous);
+        const V w = sel(sampled, simd::splatAs<V>(r.alpha), one);
+        const V md0 = load(b.meanDensity + at), mx0 = load(b.meanVelocityX + at), my0 = load(b.meanVelocityY + at),
+                ms0 = load(b.meanSquaredSpeed + at);
+        const V md = md0 + w * (d - md0);
+        const V mx = mx0 + w * (vx - mx0), my = my0 + w * (vy - my0);
+        const V ms = ms0 + w * ((vx * vx + vy * vy) - ms0);
+        store(b.meanDensity, md, weighted);
+        store(b.meanVelocityX, mx, weighted);
+        store(b.meanVelocityY, my, weighted);
+        store(b.meanSquaredSpeed, ms, weighted);
+        store(b.sampledAt, now, weighted);
+        const V spread = ms - (mx * mx + my * my);
+        const V pressure = sel(weighted, md * sel(lt(zero, spread), spread, zero), zero);
+        const V maxP = load(tally.maxPressure + at);
+        put(tally.maxPressure + at, sel(lt(maxP, pressure), pressure, maxP));
+        // Crowd turbulence is a dense-crowd phenomenon (Helbing et al. 2007 observed it at 7–9
+        // persons/m²). Where people merely pass the same place in different directions at low
+        // density (crossings, counter-flows), the local velocity also varies in time, so the
+        // pressure counts only where the density is above Fruin's level F as well
+        // (docs/crowd-health.md shows a sparse crossing that needs this gate).
+        const M turbulent = M(lt(simd::splatAs<V>(r.pressureCritical), pressure) &
+                              lt(simd::splatAs<V>(r.densityCaution), sel(weighted, md, md0)));
+        store(b.seconds[3], load(b.seconds[3] + at) + dt, turbulent);
+        count(3, turbulent, people);
+    }
+}
+
+// Three builds of the cells' update, chosen with the scatter's (crowdFieldPath): two lanes in
+// SSE2 registers, four in AVX2, eight in AVX-512 (GCC 12 compares 512-bit vectors of its own
+// lane by lane: simd.h's mask helpers). No fused multiply-add.
+template <bool Full, class Block>
+CH_FIELD_NO_CONTRACT void updateCellsGeneric(Block& b, const BlockInput& in, unsigned mask, const CellRecord& r,
+                                             BlockTally& tally) {
+    updateCells<simd::DV2, Full>(b, in, mask, r, tally);
+}
+
+#ifdef CH_FIELD_X86
+template <bool Full, class Block>
+__attribute__((target("avx2"))) CH_FIELD_NO_CONTRACT void updateCellsAvx2(Block& b, const BlockInput& in,
+                                                                          unsigned mask, const CellRecord& r,
+                                                                          BlockTally& tally) {
+    updateCells<simd::DV, Full>(b, in, mask, r, tally);
+}
+
+template <bool Full, class Block>
+__attribute__((target("avx512f,avx512dq,avx512vl"))) CH_FIELD_NO_CONTRACT void updateCellsAvx512(
+    Block& b, const BlockInput& in, unsigned mask, const CellRecord& r, BlockTally& tally) {
+    updateCells<simd::DV8, Full>(b, in, mask, r, tally);
+}
+#endif
+
+template <bool Full, class Block>
+using UpdateCells = void (*)(Block&, const BlockInput&, unsigned, const CellRecord&, BlockTally&);
+
+/// The build of the cells' update in use (crowdFieldPath).
+template <bool Full, class Block>
+UpdateCells<Full, Block> updateCellsBuild() {
+#ifdef CH_FIELD_X86
+    switch (gScatterPath.load(std::memory_order_relaxed)) {
+    case 2: return &updateCellsAvx512<Full, Block>;
+    case 1: return &updateCellsAvx2<Full, Block>;
+    default: break;
+    }
+#endif
+    return &updateCellsGeneric<Full, Block>;
+}
+
 }  // namespace
 
 char fruinLevel(double density) { return static_cast<char>('A' + fruinIndex(density)); }
@@ -611,21 +806,41 @@ void SafetyRecorder::goSparse() {
     sparse_ = true;
 }
 
-SafetyRecorder::Cell& SafetyRecorder::cellAt(int x, int y) {
-    if (!cover(x, y, x, y) || !makeTile(tileSlot(x, y))) return sparseCells_[{y, x}];
-    Tile& tile = store_[tileSlot(x, y)];
-    const int k = inTile(x, y);
-    if (!tile.present[k]) {
-        tile.present[k] = 1;
-        if (bx1_ < bx0_) {
-            bx0_ = bx1_ = x;
-            by0_ = by1_ = y;
-        } else {
-            bx0_ = std::min(bx0_, x), bx1_ = std::max(bx1_, x);
-            by0_ = std::min(by0_, y), by1_ = std::max(by1_, y);
-        }
-    }
-    return tile.cells[k];
+SafetyRecorder::CellBlock::CellBlock() {
+    const Cell c;
+    for (int l = 0; l < kBlockCells; ++l) set(l, c);
+}
+
+SafetyRecorder::Cell SafetyRecorder::CellBlock::get(int l) const {
+    // A Cell's fields (18 doubles and its worst level, 160 bytes with Vec2's alignment): get and
+    // set copy each.
+    static_assert(sizeof(Cell) == 160, "a field added to Cell must be added to CellBlock, get and set");
+    Cell c;
+    c.maxDensity = maxDensity[l];
+    c.maxContact = maxContact[l];
+    for (int k = 0; k < kConditions; ++k) c.seconds[k] = seconds[k][l];
+    c.meanDensity = meanDensity[l];
+    c.meanSquaredSpeed = meanSquaredSpeed[l];
+    c.meanVelocity = Vec2(meanVelocityX[l], meanVelocityY[l]);
+    c.sampledAt = sampledAt[l];
+    for (int k = 0; k < 5; ++k) c.losRun[k] = losRun[k][l];
+    c.losAt = losAt[l];
+    c.worstLos = worstLos[l];
+    return c;
+}
+
+void SafetyRecorder::CellBlock::set(int l, const Cell& c) {
+    maxDensity[l] = c.maxDensity;
+    maxContact[l] = c.maxContact;
+    for (int k = 0; k < kConditions; ++k) seconds[k][l] = c.seconds[k];
+    meanDensity[l] = c.meanDensity;
+    meanSquaredSpeed[l] = c.meanSquaredSpeed;
+    meanVelocityX[l] = c.meanVelocity.x();
+    meanVelocityY[l] = c.meanVelocity.y();
+    sampledAt[l] = c.sampledAt;
+    for (int k = 0; k < 5; ++k) losRun[k][l] = c.losRun[k];
+    losAt[l] = c.losAt;
+    worstLos[l] = c.worstLos;
 }
 
 template <class F>
@@ -637,7 +852,7 @@ void SafetyRecorder::forEachCell(F&& f) const {
     for (int y = by0_; y <= by1_; ++y)
         for (int x = bx0_; x <= bx1_; ++x) {
             const Tile* tile = tileOf(x, y);
-            if (tile != nullptr && tile->present[inTile(x, y)]) f(x, y, tile->cells[inTile(x, y)]);
+            if (tile != nullptr && tile->present[inTile(x, y)]) f(x, y, tile->get(inTile(x, y)));
         }
 }
 
@@ -724,72 +939,55 @@ void SafetyRecorder::recordAt(const AgentStore& a, double t, const HealthLayer* 
             }
         }
     };
-    // The field's columns, the thresholds and the record's numbers in locals, captured by value:
-    // the cell's byte (worstLos) may alias anything, so values read through `f`, `t_` or a
-    // captured reference would otherwise be loaded again after every store to it; and the lambda
-    // inlined into its loops (issue 20: a sixth of the cells' time).
+    // The record's numbers for the cells' update, and the field's columns (pointers to entry k
+    // … k + 7 where they are a block's cells in order, else a staging copy: see below).
+    CellRecord rec;
+    rec.previous = previous;
+    rec.dt = dt;
+    rec.t = t;
+    rec.alpha = alpha;
+    rec.minDuration = t_.minDuration;
+    rec.pressureCritical = t_.crowdPressureCritical;
+    rec.densityCaution = t_.densityCaution;
+    std::copy_n(levels, 3, rec.levels);
+    rec.withContact = health != nullptr;
     const double* const density = f.density.data();
     const Vec2* const velocity = f.velocity.data();
     const unsigned char* const weighted = f.weighted.data();
     const int* const peopleIn = f.people.data();
     const double* const contactIn = contact.data();
-    const double minDuration = t_.minDuration, pressureCritical = t_.crowdPressureCritical,
-                 densityCaution = t_.densityCaution;
-    const bool withContact = health != nullptr;
-    auto evaluate = [density, velocity, weighted, peopleIn, contactIn, minDuration, pressureCritical, densityCaution,
-                     withContact, levels, previous, dt, t, alpha](Cell& cell, std::size_t k, Tally& tally)
-        __attribute__((always_inline)) {
-        const double d = density[k];
-        cell.maxDensity = std::max(cell.maxDensity, d);
-        if (withContact) cell.maxContact = std::max(cell.maxContact, contactIn[k]);
-        // Fruin's levels: how long each has held here without a break (a cell missed by a record
-        // — nobody within reach — starts again). The runs never grow with the level (each level's
-        // run holds whenever a worse one's does), so the levels that held for minDuration are
-        // B … B + m − 1, and m counts them.
-        {
-            const bool continues = cell.losAt == previous && dt > 0;
-            const int level = fruinIndex(d);  // 0 = A … 5 = F
-            int lasted = 0;
-            for (int l = 1; l <= 5; ++l) {
-                const bool on = level >= l;
-                const double run = on && continues ? cell.losRun[l - 1] + dt : 0.0;
-                cell.losRun[l - 1] = run;
-                lasted += on && run >= minDuration;
+    const auto direct = [&](std::size_t k) {
+        return BlockInput{density + k, rec.withContact ? contactIn + k : nullptr, velocity + k, weighted + k,
+                          peopleIn + k};
+    };
+    // Entries that are not a whole block: each in its lane of a copy, zeros in the other lanes.
+    struct Staged {
+        double density[kBlockCells] = {}, contact[kBlockCells] = {};
+        Vec2 velocity[kBlockCells];
+        unsigned char weighted[kBlockCells] = {};
+        int people[kBlockCells] = {};
+        Staged() {
+            for (Vec2& v : velocity) v = Vec2(0, 0);
+        }
+        void put(int lane, std::size_t k, const BlockInput& from) {
+            density[lane] = from.density[k];
+            if (from.contact != nullptr) contact[lane] = from.contact[k];
+            velocity[lane] = from.velocity[k];
+            weighted[lane] = from.weighted[k];
+            people[lane] = from.people[k];
+        }
+        BlockInput input() const { return BlockInput{density, contact, velocity, weighted, people}; }
+    };
+    const BlockInput field = direct(0);
+    const auto wholeBlock = updateCellsBuild<true, CellBlock>();
+    const auto someLanes = updateCellsBuild<false, CellBlock>();
+    const auto fold = [](const BlockTally& lanes, Tally& tally) {
+        for (int c = 0; c < 4; ++c)
+            for (int l = 0; l < kBlockCells; ++l) {
+                tally.held[c] = tally.held[c] || lanes.held[c][l] > 0;
+                tally.people[c] += static_cast<std::size_t>(lanes.people[c][l]);
             }
-            cell.worstLos = std::max(cell.worstLos, static_cast<char>('A' + lasted));
-            cell.losAt = t;
-        }
-        for (int l = 0; l < 3; ++l)
-            if (d > levels[l]) {
-                cell.seconds[l] += dt;
-                tally.held[l] = true;
-                tally.people[l] += static_cast<std::size_t>(peopleIn[k]);
-            }
-        // Crowd pressure: the variance in time of the local velocity at this place, times
-        // the local density (both averaged over the window). A cell with no agent within
-        // reach has no local velocity; its averages restart when agents come back.
-        double pressure = 0;
-        if (weighted[k]) {
-            const Vec2 v = velocity[k];
-            const bool continues = cell.sampledAt == previous && dt > 0;
-            const double w = continues ? alpha : 1.0;
-            cell.meanDensity += w * (d - cell.meanDensity);
-            cell.meanVelocity += w * (v - cell.meanVelocity);
-            cell.meanSquaredSpeed += w * (v.squaredNorm() - cell.meanSquaredSpeed);
-            cell.sampledAt = t;
-            pressure = cell.meanDensity * std::max(0.0, cell.meanSquaredSpeed - cell.meanVelocity.squaredNorm());
-            tally.maxPressure = std::max(tally.maxPressure, pressure);
-        }
-        // Crowd turbulence is a dense-crowd phenomenon (Helbing et al. 2007 observed it at
-        // 7–9 persons/m²). Where people merely pass the same place in different directions at
-        // low density (crossings, counter-flows), the local velocity also varies in time, so
-        // the pressure counts only where the density is above Fruin's level F as well
-        // (docs/crowd-health.md shows a sparse crossing that needs this gate).
-        if (pressure > pressureCritical && cell.meanDensity > densityCaution) {
-            cell.seconds[Pressure] += dt;
-            tally.held[Pressure] = true;
-            tally.people[Pressure] += static_cast<std::size_t>(peopleIn[k]);
-        }
+        for (int l = 0; l < kBlockCells; ++l) tally.maxPressure = std::max(tally.maxPressure, lanes.maxPressure[l]);
     };
     std::vector<std::pair<int, int>> crushCells;
     auto merge = [&](Tally& tally) {
@@ -804,17 +1002,25 @@ void SafetyRecorder::recordAt(const AgentStore& a, double t, const HealthLayer* 
         const std::size_t count = f.size();
         const int* const ix = f.ix.data();
         const int* const iy = f.iy.data();
+        // The entries of one block (one row, kBlockCells aligned columns) follow each other in the
+        // field (sorted by (iy, ix)); a share starts at the first entry of a block, so that no
+        // block is written by two threads.
+        const auto blockStart = [ix, iy, count](std::size_t k) {
+            while (k > 0 && k < count && iy[k - 1] == iy[k] && (ix[k - 1] >> kBlockBits) == (ix[k] >> kBlockBits)) --k;
+            return k;
+        };
 #pragma omp parallel if (parallelCheapLoop(count))
         {
             // The thread's share of the entries, the same for its agents and its cells.
             const std::size_t threads = static_cast<std::size_t>(omp_get_num_threads());
             const std::size_t me = static_cast<std::size_t>(omp_get_thread_num());
-            const std::size_t from = count * me / threads, to = count * (me + 1) / threads;
+            const std::size_t from = blockStart(count * me / threads), to = blockStart(count * (me + 1) / threads);
             Tally tally;
             agentsOf(from, to, me + 1 == threads, tally);
+            BlockTally lanes;
             Tile* tile = nullptr;
             int tileX = 0, tileY = 0;
-            for (std::size_t k = from; k < to; ++k) {
+            for (std::size_t k = from; k < to;) {
                 const int x = ix[k], y = iy[k];
                 // The tile of the last entry while the entries stay in it (a row of the field
                 // crosses a tile in kTileSide entries).
@@ -823,24 +1029,55 @@ void SafetyRecorder::recordAt(const AgentStore& a, double t, const HealthLayer* 
                     tileX = x, tileY = y;
                 }
                 const int c = inTile(x, y);
-                tile->present[c] = 1;
-                // The cells of a tile's row follow each other; fetch the one four on (past the
-                // row's end a prefetch is wasted, never wrong).
-                __builtin_prefetch(&tile->cells[c] + 4);
-                evaluate(tile->cells[c], k, tally);
+                CellBlock& block = tile->blocks[c >> kBlockBits];
+                if ((x & (kBlockCells - 1)) == 0 && to - k >= kBlockCells && iy[k + kBlockCells - 1] == y &&
+                    ix[k + kBlockCells - 1] == x + kBlockCells - 1) {  // a whole block in order
+                    wholeBlock(block, direct(k), 0xffu, rec, lanes);
+                    std::memset(tile->present + c, 1, kBlockCells);
+                    k += kBlockCells;
+                    continue;
+                }
+                Staged staged;
+                unsigned mask = 0;
+                for (; k < to && iy[k] == y && (ix[k] >> kBlockBits) == (x >> kBlockBits); ++k) {
+                    const int lane = ix[k] & (kBlockCells - 1);
+                    staged.put(lane, k, field);
+                    mask |= 1u << lane;
+                    tile->present[inTile(ix[k], y)] = 1;
+                }
+                someLanes(block, staged.input(), mask, rec, lanes);
             }
+            fold(lanes, tally);
 #pragma omp critical(ch_safety_record_merge)
             merge(tally);
         }
-    } else {
+    } else {  // the cells in the map (or none): each in lane 0 of a block
         Tally tally;
         agentsOf(0, f.size(), true, tally);
-        for (std::size_t k = 0; k < f.size(); ++k) evaluate(cellAt(f.ix[k], f.iy[k]), k, tally);
+        BlockTally lanes;
+        CellBlock one;
+        for (std::size_t k = 0; k < f.size(); ++k) {
+            Cell& cell = sparseCells_[{f.iy[k], f.ix[k]}];
+            Staged staged;
+            staged.put(0, k, field);
+            one.set(0, cell);
+            someLanes(one, staged.input(), 1u, rec, lanes);
+            cell = one.get(0);
+        }
+        fold(lanes, tally);
         merge(tally);
     }
     std::sort(crushCells.begin(), crushCells.end());
     crushCells.erase(std::unique(crushCells.begin(), crushCells.end()), crushCells.end());
-    for (const auto& [y, x] : crushCells) cellAt(x, y).seconds[Crush] += dt;
+    // The crushed people's cells are entries of the field: on tiles made above, or in the map.
+    for (const auto& [y, x] : crushCells) {
+        if (sparse_) {
+            sparseCells_[{y, x}].seconds[Crush] += dt;
+        } else {
+            const int c = inTile(x, y);
+            store_[tileSlot(x, y)].blocks[c >> kBlockBits].seconds[Crush][c & (kBlockCells - 1)] += dt;
+        }
+    }
     for (int c = 0; c < kConditions; ++c) {
         if (!held[c]) continue;
         Timeline& tl = timeline_[c];
@@ -889,7 +1126,7 @@ std::string SafetyRecorder::heatmapCsv() const {
         for (int ix = ix0; ix <= ix1; ++ix) {
             if (!sparse_) {  // the index covers the rectangle; cells never evaluated are default
                 const Tile* tile = tileOf(ix, iy);
-                row(ix, iy, tile != nullptr ? tile->cells[inTile(ix, iy)] : empty);
+                row(ix, iy, tile != nullptr ? tile->get(inTile(ix, iy)) : empty);
                 continue;
             }
             const auto it = sparseCells_.find({iy, ix});

@@ -120,7 +120,8 @@ template <class V>
 
 /// Comparisons and selects by width, for code written once for every width (templates over V,
 /// such as SocialForcesAvoidance's pair loop and expNonPositive):
-/// le(a, b) = a ≤ b and lt(a, b) = a < b lane by lane (IEEE ordered: false with NaN), sel(m, a, b)
+/// le(a, b) = a ≤ b, lt(a, b) = a < b and eq(a, b) = a == b lane by lane (IEEE ordered: false with
+/// NaN), sel(m, a, b)
 /// = m ? a : b, allLanes(v) = every lane set.
 /// Two and four lanes: GCC's vector comparisons (all-ones lanes). Eight lanes: AVX-512 mask
 /// registers through GCC's builtins (GCC 12 expands a comparison of 512-bit vectors that gives a
@@ -129,10 +130,12 @@ template <class V>
 /// for AVX-512. Every width gives the same results lane by lane.
 [[gnu::always_inline]] inline IV2 le(DV2 a, DV2 b) { return a <= b; }
 [[gnu::always_inline]] inline IV2 lt(DV2 a, DV2 b) { return a < b; }
+[[gnu::always_inline]] inline IV2 eq(DV2 a, DV2 b) { return a == b; }
 [[gnu::always_inline]] inline IV2 allLanes(DV2) { return IV2{} - 1; }
 [[gnu::always_inline]] inline DV2 sel(IV2 m, DV2 a, DV2 b) { return select(m, a, b); }
 [[gnu::always_inline]] inline IV le(DV a, DV b) { return a <= b; }
 [[gnu::always_inline]] inline IV lt(DV a, DV b) { return a < b; }
+[[gnu::always_inline]] inline IV eq(DV a, DV b) { return a == b; }
 [[gnu::always_inline]] inline IV allLanes(DV) { return IV{} - 1; }
 [[gnu::always_inline]] inline DV sel(IV m, DV a, DV b) { return select(m, a, b); }
 #ifdef CH_SIMD_AVX512_MASKS
@@ -141,6 +144,9 @@ template <class V>
 }
 [[gnu::always_inline]] inline __mmask8 lt(DV8 a, DV8 b) {
     return __builtin_ia32_cmppd512_mask(a, b, _CMP_LT_OQ, 0xff, _MM_FROUND_CUR_DIRECTION);
+}
+[[gnu::always_inline]] inline __mmask8 eq(DV8 a, DV8 b) {
+    return __builtin_ia32_cmppd512_mask(a, b, _CMP_EQ_OQ, 0xff, _MM_FROUND_CUR_DIRECTION);
 }
 [[gnu::always_inline]] inline __mmask8 allLanes(DV8) { return 0xff; }
 [[gnu::always_inline]] inline DV8 sel(__mmask8 m, DV8 a, DV8 b) { return __builtin_ia32_blendmpd_512_mask(b, a, m); }

@@ -68,10 +68,11 @@ double fruinLowerDensity(char level);
 /// Evaluates the Helbing et al. 2007 local density and local velocity on the grid (one instant).
 CrowdField crowdField(const AgentStore& agents, double cellSize = 1.0, double gaussianRadius = 0.7);
 
-/// The builds of crowdField's scatter over a rectangle of cells: 0 generic (two lanes, an SSE2
-/// register on x86-64), 1 AVX2 (four lanes), 2 AVX-512 (eight lanes), all giving the same bits. The best this
-/// CPU runs is used; setCrowdFieldPath returns false and changes nothing when this CPU cannot run
-/// `path` (tests compare the builds; crowdhealth-bench --isa).
+/// The builds of crowdField's scatter over a rectangle of cells and of SafetyRecorder's update of
+/// its cells: 0 generic (two lanes, SSE2 registers on x86-64), 1 AVX2 (four lanes), 2 AVX-512
+/// (eight lanes), all giving the same bits. The best this CPU runs is used; setCrowdFieldPath
+/// returns false and changes nothing when this CPU cannot run `path` (tests compare the builds;
+/// crowdhealth-bench --isa).
 int crowdFieldPath();
 bool setCrowdFieldPath(int path);
 
@@ -165,9 +166,28 @@ private:
     // The tiles are made in blocks of one huge page (bigAllocate): a 10k-agent crowd's cells,
     // 3.7 MB, would otherwise cost ~900 page faults of 4 KiB each (issue 20).
     static constexpr int kTileBits = 4, kTileSide = 1 << kTileBits, kTileCells = kTileSide * kTileSide;
+    /// The cells of a tile in blocks of kBlockCells consecutive cells of a row, field by field
+    /// (lane l of each array: cell l of the block), so that a record updates a block's cells in
+    /// vectors (issue 20: one cell at a time took ~45 % of the safety grid's time in a 10k-agent
+    /// social-forces run). The same fields as Cell.
+    static constexpr int kBlockBits = 3, kBlockCells = 1 << kBlockBits;
+    struct alignas(64) CellBlock {
+        double maxDensity[kBlockCells], maxContact[kBlockCells];
+        double seconds[kConditions][kBlockCells];
+        double meanDensity[kBlockCells], meanSquaredSpeed[kBlockCells];
+        double meanVelocityX[kBlockCells], meanVelocityY[kBlockCells];
+        double sampledAt[kBlockCells];
+        double losRun[5][kBlockCells];
+        double losAt[kBlockCells];
+        char worstLos[kBlockCells];
+        CellBlock();  ///< kBlockCells default cells
+        Cell get(int lane) const;
+        void set(int lane, const Cell& c);
+    };
     struct Tile {
-        Cell cells[kTileCells];
+        CellBlock blocks[kTileCells / kBlockCells];
         unsigned char present[kTileCells] = {};
+        Cell get(int c) const { return blocks[c >> kBlockBits].get(c & (kBlockCells - 1)); }
     };
     /// Tiles in blocks of kHugePage bytes, numbered in the order they were made; a tile stays
     /// where it was made until the store is cleared. Copies copy the tiles.
@@ -241,8 +261,6 @@ private:
     bool makeTile(int& slot);
     /// Moves the evaluated cells to sparseCells_, for good.
     void goSparse();
-    /// Marks cell (x, y) evaluated (the bounds grow to it) and returns it.
-    Cell& cellAt(int x, int y);
     /// f(x, y, cell) for every evaluated cell, y ascending then x ascending.
     template <class F>
     void forEachCell(F&& f) const;
