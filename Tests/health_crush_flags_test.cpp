@@ -10,9 +10,13 @@
 
 #include "crowdhealth/health/health.h"
 #include "crowdhealth/health/safety.h"
+#include "crowdhealth/io/output.h"
 #include "crowdhealth/io/xml.h"
 
 #include <cmath>
+#include <limits>
+#include <map>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -102,12 +106,27 @@ BOOST_AUTO_TEST_CASE(safety_recorder_counts_the_same_crush_with_the_flags_as_wit
     // Two recorders of the same run: one reads the flags; before the other records, every
     // threshold is raised by one ulp (the flags are withheld: it reads the records), then set
     // back before the next step. A force within that ulp of a threshold would differ; none does.
+    // Each cell's seconds_above_crush_threshold is the time between records summed over the
+    // records at which someone in the cell was above their threshold (the test's own count).
     const ScenarioSpec spec = injuries();
     Simulation sim(spec);
     SafetyRecorder flags(spec.safety), records(spec.safety);
     const std::size_t policies = sim.policies().size();
     std::size_t withheld = 0;
+    std::map<std::pair<int, int>, double> crushSeconds;  // (x, y) → seconds
+    double previous = std::numeric_limits<double>::quiet_NaN();
+    const double c = spec.safety.cellSize;
     while (true) {
+        std::set<std::pair<int, int>> crushed;
+        const HealthLayer& h = sim.health();
+        for (std::size_t i = 0; i < sim.agents().size(); ++i) {
+            const HealthRecord& r = h.recordOf(sim.agents(), i);
+            const Vec2 p = sim.agents().pos[i];
+            if (r.lastForce > h.params(r.policy).crushThreshold)
+                crushed.emplace(static_cast<int>(std::floor(p.x() / c)), static_cast<int>(std::floor(p.y() / c)));
+        }
+        for (const auto& cell : crushed) crushSeconds[cell] += previous == previous ? sim.time() - previous : 0.0;
+        previous = sim.time();
         flags.record(sim);
         std::vector<double> kept(policies);
         for (std::size_t p = 0; p < policies; ++p) {
@@ -128,12 +147,20 @@ BOOST_AUTO_TEST_CASE(safety_recorder_counts_the_same_crush_with_the_flags_as_wit
     std::istringstream in(heat);
     std::string line;
     std::getline(in, line);
-    std::size_t crushCells = 0;
+    std::size_t crushCells = 0, wrong = 0;
     while (std::getline(in, line)) {
         std::istringstream row(line);
-        std::string cell;
-        for (int c = 0; c < 6; ++c) std::getline(row, cell, ',');
+        std::string x, y, cell;
+        std::getline(row, x, ',');
+        std::getline(row, y, ',');
+        for (int k = 2; k < 6; ++k) std::getline(row, cell, ',');
         if (!cell.empty() && std::stod(cell) > 0) ++crushCells;
+        const auto it = crushSeconds.find({static_cast<int>(std::floor(std::stod(x) / c)),
+                                           static_cast<int>(std::floor(std::stod(y) / c))});
+        std::string want;
+        appendNumber(want, it == crushSeconds.end() ? 0.0 : it->second);
+        wrong += cell != want;
     }
-    BOOST_TEST(crushCells > 0u);
+    BOOST_TEST(crushCells > 5u);
+    BOOST_TEST(wrong == 0u);
 }

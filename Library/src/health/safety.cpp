@@ -297,8 +297,8 @@ struct FruinBounds {
 };
 
 /// Fruin's level 0 (A) … 5 (F) of a density, as fruinLevelByArea gives it, by five comparisons
-/// instead of two divisions (once per cell and record in the safety recorder). NaN and densities
-/// ≤ 0 are level A.
+/// instead of two divisions (the safety recorder's update compares with the bounds itself). NaN
+/// and densities ≤ 0 are level A.
 const FruinBounds fruinBounds;  // before main (this file's constants are constexpr)
 
 inline int fruinIndex(double density) {
@@ -385,8 +385,10 @@ template <class V, bool Full, class Block>
     for (int l = 0; l < W; ++l) even[l] = 2 * l, odd[l] = 2 * l + 1;
     for (int at = 0; at < 8; at += W) {
         const M on = Full ? all : lanesOf<V>(mask >> at);
-        // Field p of the block in the lanes of m (and of the mask) set to v, the others as they were.
+        // Field p of the block set to v in the lanes of m (and of the mask), the others as they were;
+        // in every lane of the mask (setAll).
         const auto store = [&](double* p, V v, M m) { put(p + at, sel(Full ? m : M(m & on), v, load(p + at))); };
+        const auto setAll = [&](double* p, V v) { put(p + at, Full ? v : sel(on, v, load(p + at))); };
         // A condition held in the lanes of m: its people and that it held, in the tally.
         const auto count = [&](int c, M m, V people) {
             put(tally.people[c] + at, load(tally.people[c] + at) + sel(m, people, zero));
@@ -394,10 +396,10 @@ template <class V, bool Full, class Block>
         };
         const V d = load(in.density + at);
         const V maxD = load(b.maxDensity + at);
-        store(b.maxDensity, sel(lt(maxD, d), d, maxD), all);
+        setAll(b.maxDensity, sel(lt(maxD, d), d, maxD));
         if (r.withContact) {
             const V c = load(in.contact + at), maxC = load(b.maxContact + at);
-            store(b.maxContact, sel(lt(maxC, c), c, maxC), all);
+            setAll(b.maxContact, sel(lt(maxC, c), c, maxC));
         }
         // Fruin's levels: how long each has held here without a break (a cell missed by a record
         // — nobody within reach — starts again). The runs never grow with the level (each level's
@@ -409,7 +411,7 @@ template <class V, bool Full, class Block>
         for (int l = 1; l <= 5; ++l) {
             const M level = lt(simd::splatAs<V>(fruinBounds.bounds[l - 1]), d);
             const V run = sel(M(level & continues), load(b.losRun[l - 1] + at) + dt, zero);
-            store(b.losRun[l - 1], run, all);
+            setAll(b.losRun[l - 1], run);
             lasted += sel(M(level & le(simd::splatAs<V>(r.minDuration), run)), one, zero);
         }
         for (int l = 0; l < W; ++l)
@@ -417,7 +419,7 @@ template <class V, bool Full, class Block>
                 char& worst = b.worstLos[at + l];
                 worst = std::max(worst, static_cast<char>('A' + static_cast<int>(lasted[l])));
             }
-        store(b.losAt, now, all);
+        setAll(b.losAt, now);
         V people;
         for (int l = 0; l < W; ++l) people[l] = static_cast<double>(in.people[at + l]);
         for (int l = 0; l < 3; ++l) {
@@ -904,26 +906,24 @@ void SafetyRecorder::recordAt(const AgentStore& a, double t, const HealthLayer* 
     };
     // Contact: the largest contact acceleration of the agents in each entry's cell (max is exact
     // in any order), folded into the cells in the loop below, which walks the grid in order (the
-    // agents' order would visit the 160-byte cells at random). Crush: each agent's last force
-    // against its own threshold. A share of entries [from, to) takes the agents whose cell is
-    // one of them (`last`: and those in no entry, for the count of crushed people), so that a
-    // thread reads only its own agents' accelerations and writes only its own entries (issue 20:
-    // one thread did this for every agent before the cells, the safety grid's largest serial
-    // part on two threads).
+    // agents' order would visit the cells at random). Crush: each agent's last force
+    // against its own threshold, for the heat map's seconds above it (the verdict's crush
+    // reasons come from the health layer's records). A share of entries [from, to) takes the
+    // agents whose cell is one of them, so that a thread reads only its own agents' accelerations
+    // and writes only its own entries (issue 20: one thread did this for every agent before the
+    // cells, the safety grid's largest serial part on two threads).
     std::vector<double> contact(health != nullptr ? f.size() : 0, 0.0);
     // The health layer's byte per record when it has them (the test below, without reading the
     // agent's 128-byte record).
     const unsigned char* const crushed = health != nullptr ? health->crushFlags() : nullptr;
-    const auto agentsOf = [&](std::size_t from, std::size_t to, bool last, Tally& tally) {
+    const auto agentsOf = [&](std::size_t from, std::size_t to, Tally& tally) {
         if (health == nullptr) return;
         const HealthLayer& h = *health;
         const std::uint32_t* const cellOf = f.cellOfAgent.data();
-        const std::size_t entries = f.size();
         for (std::size_t i = 0; i < a.size(); ++i) {
-            const std::size_t k = cellOf[i];
-            const bool inField = k < entries;
-            if (inField ? k < from || k >= to : !last) continue;
-            if (inField) contact[k] = std::max(contact[k], a.contactAccel[i].norm());
+            const std::size_t k = cellOf[i];  // every agent's own cell is an entry of the field
+            if (k < from || k >= to) continue;
+            contact[k] = std::max(contact[k], a.contactAccel[i].norm());
             const int rec = a.record[i];
             bool above;
             if (crushed != nullptr && rec >= 0) {
@@ -932,11 +932,7 @@ void SafetyRecorder::recordAt(const AgentStore& a, double t, const HealthLayer* 
                 const HealthRecord& r = h.recordOf(a, i);
                 above = r.lastForce > h.params(r.policy).crushThreshold;
             }
-            if (above) {
-                if (inField) tally.crushCells.emplace_back(f.iy[k], f.ix[k]);
-                tally.held[Crush] = true;
-                ++tally.people[Crush];
-            }
+            if (above) tally.crushCells.emplace_back(f.iy[k], f.ix[k]);
         }
     };
     // The record's numbers for the cells' update, and the field's columns (pointers to entry k
@@ -1016,7 +1012,7 @@ void SafetyRecorder::recordAt(const AgentStore& a, double t, const HealthLayer* 
             const std::size_t me = static_cast<std::size_t>(omp_get_thread_num());
             const std::size_t from = blockStart(count * me / threads), to = blockStart(count * (me + 1) / threads);
             Tally tally;
-            agentsOf(from, to, me + 1 == threads, tally);
+            agentsOf(from, to, tally);
             BlockTally lanes;
             Tile* tile = nullptr;
             int tileX = 0, tileY = 0;
@@ -1053,7 +1049,7 @@ void SafetyRecorder::recordAt(const AgentStore& a, double t, const HealthLayer* 
         }
     } else {  // the cells in the map (or none): each in lane 0 of a block
         Tally tally;
-        agentsOf(0, f.size(), true, tally);
+        agentsOf(0, f.size(), tally);
         BlockTally lanes;
         CellBlock one;
         for (std::size_t k = 0; k < f.size(); ++k) {
