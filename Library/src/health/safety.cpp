@@ -1028,6 +1028,12 @@ void SafetyRecorder::recordAt(const AgentStore& a, double t, const HealthLayer* 
                 CellBlock& block = tile->blocks[c >> kBlockBits];
                 if ((x & (kBlockCells - 1)) == 0 && to - k >= kBlockCells && iy[k + kBlockCells - 1] == y &&
                     ix[k + kBlockCells - 1] == x + kBlockCells - 1) {  // a whole block in order
+                    // The block of the same columns one row on (two blocks on in the tile, or past
+                    // its last row, a prefetch wasted, never wrong): the field's next row reaches
+                    // it ~100 cells later. The update is bound by the cells' memory (~1.6 MB per
+                    // record at 10k agents); this took the safety grid −14 to −21 % (issue 20).
+                    const char* const next = reinterpret_cast<const char*>(&block + 2);
+                    for (std::size_t o = 0; o < sizeof(CellBlock); o += 64) __builtin_prefetch(next + o, 1);
                     wholeBlock(block, direct(k), 0xffu, rec, lanes);
                     std::memset(tile->present + c, 1, kBlockCells);
                     k += kBlockCells;
