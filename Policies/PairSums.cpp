@@ -268,36 +268,82 @@ CH_PAIRS_AVX512 CH_PAIRS_NO_CONTRACT double densityAvx512(const DensityInput& in
     return rho;
 }
 
-/// ContactForces' agent springs, eight entries per step, the terms added in list order as above.
+/// Up to eight entries of a list in lanes: offsets x, y and agent indices j (list_lanes.h's
+/// Entries8 without its mask).
+struct Lanes8 {
+    __m512d x, y;
+    __m256i j;
+};
+
+/// ContactForces' agent springs over the first `n` (1 ≤ n ≤ 8) lanes of `c`, entries already
+/// within reach2 in list order: the scalar build's remaining tests and terms, the terms of the
+/// lanes that fail a test set to +0 and all eight added in lane order (see sphAvx512).
+CH_PAIRS_AVX512 CH_PAIRS_NO_CONTRACT [[gnu::always_inline]] inline void contactLanes(const ContactInput& in, const Lanes8& c, std::size_t n,
+                                                                                  double& ax, double& ay) {
+    const __m512d own = _mm512_set1_pd(in.radiusI), stiffness = _mm512_set1_pd(in.stiffness);
+    const __m512d tiny = _mm512_set1_pd(1e-12), zero = _mm512_setzero_pd();
+    const __m512i signBit = _mm512_set1_epi64(static_cast<long long>(0x8000000000000000ULL));
+    const __mmask8 live = static_cast<__mmask8>((1u << n) - 1u);
+    const __m512d d2 = _mm512_add_pd(_mm512_mul_pd(c.x, c.x), _mm512_mul_pd(c.y, c.y));
+    const __m512d reach = _mm512_add_pd(own, _mm512_mask_i32gather_pd(zero, live, c.j, in.radius, 8));
+    __mmask8 use = live & _mm512_cmp_pd_mask(d2, _mm512_mul_pd(reach, reach), _CMP_NGE_UQ);
+    const __m512d r = _mm512_maskz_sqrt_pd(0xff, d2);
+    const __m512d overlap = _mm512_sub_pd(reach, r);
+    use &= _mm512_cmp_pd_mask(overlap, zero, _CMP_GT_OQ) & _mm512_cmp_pd_mask(r, tiny, _CMP_GT_OQ);
+    const __m512d f = _mm512_mul_pd(stiffness, overlap);
+    const __m512d nx = _mm512_castsi512_pd(_mm512_xor_si512(_mm512_castpd_si512(c.x), signBit));
+    const __m512d ny = _mm512_castsi512_pd(_mm512_xor_si512(_mm512_castpd_si512(c.y), signBit));
+    alignas(64) double tx[8], ty[8];
+    _mm512_store_pd(tx, _mm512_maskz_mul_pd(use, f, _mm512_div_pd(nx, r)));
+    _mm512_store_pd(ty, _mm512_maskz_mul_pd(use, f, _mm512_div_pd(ny, r)));
+    for (std::size_t l = 0; l < 8; ++l) {
+        ax += tx[l];
+        ay += ty[l];
+    }
+}
+
+/// ContactForces' agent springs (issue 20). The list is read eight entries at a time and only
+/// those within reach2 (the scalar build's first filter: in a dense crowd ~4 of an SPH list's
+/// ~16) are kept, packed in list order into the lanes of `kept` (compressed from their group,
+/// expanded after the entries already kept). Each time eight are kept, and at the end, their
+/// terms are computed and added in order. So the neighbours' radii, the square roots, the
+/// divisions and the additions are spent on those entries only, and the sum is the scalar
+/// build's bit for bit: the entries dropped are those whose terms it skips.
 template <class Lanes>
 CH_PAIRS_AVX512 CH_PAIRS_NO_CONTRACT Vec2 contactAvx512(const ContactInput& in, const Lanes& list) {
-    const __m512d reach2 = _mm512_set1_pd(in.reach2), own = _mm512_set1_pd(in.radiusI);
-    const __m512d stiffness = _mm512_set1_pd(in.stiffness), tiny = _mm512_set1_pd(1e-12);
-    const __m512d zero = _mm512_setzero_pd();
-    const __m512i signBit = _mm512_set1_epi64(static_cast<long long>(0x8000000000000000ULL));
-    alignas(64) double tx[8], ty[8];
+    const __m512d reach2 = _mm512_set1_pd(in.reach2);
+    const __m512i iota = _mm512_set_epi64(7, 6, 5, 4, 3, 2, 1, 0);
+    const __m256i iota32 = _mm256_set_epi32(7, 6, 5, 4, 3, 2, 1, 0);
+    Lanes8 kept{_mm512_setzero_pd(), _mm512_setzero_pd(), _mm256_setzero_si256()};
+    unsigned held = 0;  // lanes of `kept` in use, from lane 0
     double ax = 0, ay = 0;
     list.prefetch(in.count);
     for (std::size_t k = 0; k < in.count; k += 8) {
         const std::size_t left = in.count - k < 8 ? in.count - k : 8;
         const lanes::Entries8 g = list(k, left);
         const __m512d d2 = _mm512_add_pd(_mm512_mul_pd(g.x, g.x), _mm512_mul_pd(g.y, g.y));
-        const __m512d reach = _mm512_add_pd(own, column8(in.radius, g));
-        __mmask8 use = g.live & _mm512_cmp_pd_mask(d2, reach2, _CMP_LE_OQ);
-        use &= _mm512_cmp_pd_mask(d2, _mm512_mul_pd(reach, reach), _CMP_NGE_UQ);
-        const __m512d r = _mm512_maskz_sqrt_pd(0xff, d2);
-        const __m512d overlap = _mm512_sub_pd(reach, r);
-        use &= _mm512_cmp_pd_mask(overlap, zero, _CMP_GT_OQ) & _mm512_cmp_pd_mask(r, tiny, _CMP_GT_OQ);
-        const __m512d f = _mm512_mul_pd(stiffness, overlap);
-        const __m512d nx = _mm512_castsi512_pd(_mm512_xor_si512(_mm512_castpd_si512(g.x), signBit));
-        const __m512d ny = _mm512_castsi512_pd(_mm512_xor_si512(_mm512_castpd_si512(g.y), signBit));
-        _mm512_store_pd(tx, _mm512_maskz_mul_pd(use, f, _mm512_div_pd(nx, r)));
-        _mm512_store_pd(ty, _mm512_maskz_mul_pd(use, f, _mm512_div_pd(ny, r)));
-        for (std::size_t l = 0; l < 8; ++l) {
-            ax += tx[l];
-            ay += ty[l];
-        }
+        const __mmask8 near = g.live & _mm512_cmp_pd_mask(d2, reach2, _CMP_LE_OQ);
+        if (near == 0) continue;
+        const unsigned p = static_cast<unsigned>(__builtin_popcount(near));
+        const __m512d x = _mm512_maskz_compress_pd(near, g.x), y = _mm512_maskz_compress_pd(near, g.y);
+        const __m256i j = _mm256_maskz_compress_epi32(near, g.index);
+        // The new entries into lanes held, held + 1, … (as many as fit).
+        const __mmask8 into = static_cast<__mmask8>(((1u << p) - 1u) << held);
+        kept.x = _mm512_mask_expand_pd(kept.x, into, x);
+        kept.y = _mm512_mask_expand_pd(kept.y, into, y);
+        kept.j = _mm256_mask_expand_epi32(kept.j, into, j);
+        held += p;
+        if (held < 8) continue;
+        contactLanes(in, kept, 8, ax, ay);
+        // Those that did not fit, from lane 8 − (held − p) of the packed group, to lane 0.
+        held -= 8;
+        const unsigned from = p - held;
+        const __mmask8 rest = static_cast<__mmask8>((1u << held) - 1u);
+        kept.x = _mm512_maskz_permutexvar_pd(rest, _mm512_add_epi64(iota, _mm512_set1_epi64(from)), x);
+        kept.y = _mm512_maskz_permutexvar_pd(rest, _mm512_add_epi64(iota, _mm512_set1_epi64(from)), y);
+        kept.j = _mm256_maskz_permutexvar_epi32(rest, _mm256_add_epi32(iota32, _mm256_set1_epi32(static_cast<int>(from))), j);
     }
+    if (held > 0) contactLanes(in, kept, held, ax, ay);
     return {ax, ay};
 }
 #endif

@@ -1,7 +1,7 @@
 // CrowdHealth tests — the dense crowd's pair sums (Policies/PairSums.h, issue 20): SPH's density,
 // SPH's pressure and viscosity and ContactForces' agent springs, in their scalar and AVX-512 builds, against the
 // models' own expressions written out here pair by pair (as SPH.cpp and ContactForces.cpp had
-// them before the sums moved), bit for bit, on lists of every length up to five groups of eight,
+// them before the sums moved), bit for bit, on lists of every length up to five groups of eight (and long ones),
 // with the entries each test must skip: beyond the range, exactly at it, at distance 0, neighbours
 // of zero or undefined density, neighbours out of contact.
 #define BOOST_TEST_MODULE policies_pair_sums
@@ -55,6 +55,16 @@ struct Crowd {
         }
     }
 };
+
+/// List lengths a sum is checked on: every one up to five groups of eight, then long lists whose
+/// candidates for contact pass the AVX-512 build's buffer of 64 (once, several times, with and
+/// without a remainder).
+std::vector<int> lengths() {
+    std::vector<int> n;
+    for (int k = 0; k <= 40; ++k) n.push_back(k);
+    for (int k : {63, 64, 65, 71, 72, 73, 130, 203}) n.push_back(k);
+    return n;
+}
 
 /// n entries: most within `range`, and among them (by position in the list) one exactly at it,
 /// one at distance 0, one at 1e-13, a few beyond it.
@@ -209,7 +219,7 @@ BOOST_AUTO_TEST_CASE(contact_force_is_the_models_sum_bit_for_bit_in_every_build)
     int touching = 0;
     for (const int path : paths()) {
         BOOST_TEST_REQUIRE(pairs::setPath(path));
-        for (int n = 0; n <= 40; ++n) {
+        for (const int n : lengths()) {
             // Lists of 1 m (SPH's range) round an agent of radius 0.24: a few neighbours touch it;
             // of radius 1.2, every entry is within reach (whole groups of eight in contact).
             const std::vector<NeighbourAgent> entries = list(n, 1.0, rng);
@@ -259,6 +269,8 @@ BOOST_AUTO_TEST_CASE(contact_force_looks_no_farther_than_asked) {
         BOOST_TEST(a.y() == 50.0 * (0.5 - 0.4), boost::test_tools::tolerance(1e-12));
         in.reach2 = 0.85 * 0.85;  // now the large neighbour is looked at: pushed away along −x
         BOOST_TEST(pairs::contactForce(in).x() == -50.0 * (0.85 - 0.7), boost::test_tools::tolerance(1e-12));
+        in.reach2 = 0.7 * 0.7;  // exactly at the reach (0.7² both ways): still looked at (≤)
+        BOOST_TEST(pairs::contactForce(in).x() == -50.0 * (0.85 - 0.7), boost::test_tools::tolerance(1e-12));
     }
 }
 
@@ -277,7 +289,7 @@ BOOST_AUTO_TEST_CASE(sums_over_a_stored_list_by_index_have_the_bits_of_its_whole
     int pushed = 0;
     for (const int path : paths()) {
         BOOST_TEST_REQUIRE(pairs::setPath(path));
-        for (int n = 0; n <= 40; ++n) {
+        for (const int n : lengths()) {
             const std::size_t self = static_cast<std::size_t>(n % 3);
             std::vector<int> indices;
             std::vector<NeighbourAgent> entries;
