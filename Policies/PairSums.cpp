@@ -278,7 +278,8 @@ struct Lanes8 {
 /// ContactForces' agent springs over the first `n` (1 ≤ n ≤ 8) lanes of `c`, entries already
 /// within reach2 in list order: the scalar build's remaining tests and terms, the terms of the
 /// lanes that fail a test set to +0 and all eight added in lane order (see sphAvx512).
-CH_PAIRS_AVX512 CH_PAIRS_NO_CONTRACT [[gnu::always_inline]] inline void contactLanes(const ContactInput& in, const Lanes8& c, std::size_t n,
+CH_PAIRS_AVX512 CH_PAIRS_NO_CONTRACT [[gnu::always_inline]] inline void contactLanes(const ContactInput& in,
+                                                                                  const Lanes8& c, std::size_t n,
                                                                                   double& ax, double& ay) {
     const __m512d own = _mm512_set1_pd(in.radiusI), stiffness = _mm512_set1_pd(in.stiffness);
     const __m512d tiny = _mm512_set1_pd(1e-12), zero = _mm512_setzero_pd();
@@ -339,9 +340,11 @@ CH_PAIRS_AVX512 CH_PAIRS_NO_CONTRACT Vec2 contactAvx512(const ContactInput& in, 
         held -= 8;
         const unsigned from = p - held;
         const __mmask8 rest = static_cast<__mmask8>((1u << held) - 1u);
-        kept.x = _mm512_maskz_permutexvar_pd(rest, _mm512_add_epi64(iota, _mm512_set1_epi64(from)), x);
-        kept.y = _mm512_maskz_permutexvar_pd(rest, _mm512_add_epi64(iota, _mm512_set1_epi64(from)), y);
-        kept.j = _mm256_maskz_permutexvar_epi32(rest, _mm256_add_epi32(iota32, _mm256_set1_epi32(static_cast<int>(from))), j);
+        const __m512i from64 = _mm512_add_epi64(iota, _mm512_set1_epi64(from));
+        const __m256i from32 = _mm256_add_epi32(iota32, _mm256_set1_epi32(static_cast<int>(from)));
+        kept.x = _mm512_maskz_permutexvar_pd(rest, from64, x);
+        kept.y = _mm512_maskz_permutexvar_pd(rest, from64, y);
+        kept.j = _mm256_maskz_permutexvar_epi32(rest, from32, j);
     }
     if (held > 0) contactLanes(in, kept, held, ax, ay);
     return {ax, ay};
