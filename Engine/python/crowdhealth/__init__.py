@@ -50,7 +50,8 @@ def _caller():
 
 
 class Scenario:
-    """A scenario built in code: world, obstacles, policies with their parameters, agents.
+    """A scenario built in code: world, obstacles, venues (navigation, targets, exits, journeys),
+    policies with their parameters, agents (one by one, grids, sources), schedule and outputs.
 
     Every method returns the Scenario, so calls chain. Pass it to Simulation() in place of a path.
     The loader checks it when the Simulation is made: a bad value raises ScenarioError naming the
@@ -67,10 +68,12 @@ class Scenario:
         self._policies = {}    # id -> [attrs, [steps], crowd_health or None, origin]
         self._agents = []      # (xml, origin)
         self._output = {}
-        self._ramps = []       # (xml, origin): <Ramp> and <PanicEvent>, in the order given
+        self._ramps = []       # (xml, origin): <Ramp>, <PanicEvent>, <CloseExit>, <OpenExit>, in the order given
         self._safety = None    # (xml, origin)
         self._measurement = None  # [attrs, origin] of <Measurement>, or None
         self._measures = []    # (xml, origin): its <Line> and <Area> children
+        self._navigation = None  # (xml, origin) of <Navigation>, or None
+        self._venue = []       # (xml, origin): <Target>, <Exit>, <ExitSet>, <Journey>, in the order given
 
     # ---- world and obstacles ----------------------------------------------------------------
     def world(self, type="infinite", width=None, height=None, xmin=None, xmax=None, ymin=None, ymax=None):
@@ -89,6 +92,61 @@ class Scenario:
     def box(self, x, y, width, height):
         """An axis-aligned rectangle with its lower-left corner at (x, y) (UMANS' <Box>)."""
         self._obstacles.append(("<Box%s/>" % _attrs(dict(x=x, y=y, width=width, height=height)), _caller()))
+        return self
+
+    # ---- venues (docs/navigation.md) ---------------------------------------------------------
+    def navigation(self, cell_size=None, clearance=None, min_speed=None, margin=None):
+        """<Navigation>: agents follow the shortest walkable path to their target (a distance field
+        per target) instead of walking straight at it. A second call replaces the first."""
+        self._navigation = ("<Navigation%s/>" % _attrs(dict(cell_size=cell_size, clearance=clearance,
+                                                              min_speed=min_speed, margin=margin)), _caller())
+        return self
+
+    def _place(self, tag, id, x, y, radius, xmin, xmax, ymin, ymax, points, extra):
+        attrs = _attrs(dict(id=id, x=x, y=y, radius=radius, xmin=xmin, xmax=xmax, ymin=ymin, ymax=ymax, **extra))
+        if points is None:
+            return "<%s%s/>" % (tag, attrs)
+        return "<%s%s>%s</%s>" % (tag, attrs, _points(points), tag)
+
+    def target(self, id, x=None, y=None, radius=None, xmin=None, xmax=None, ymin=None, ymax=None, points=None):
+        """<Target>: a named place, one shape of three: a point (x, y; reached within radius), a
+        rectangle (xmin, xmax, ymin, ymax) or a polygon (points: a list of (x, y))."""
+        self._venue.append((self._place("Target", id, x, y, radius, xmin, xmax, ymin, ymax, points, {}), _caller()))
+        return self
+
+    def exit(self, id, x=None, y=None, radius=None, xmin=None, xmax=None, ymin=None, ymax=None, points=None,
+             width=None):
+        """<Exit>: a target where people leave the simulation (shapes as target()); width is its
+        clear width in m (the quickest rule's capacity)."""
+        self._venue.append((self._place("Exit", id, x, y, radius, xmin, xmax, ymin, ymax, points, dict(width=width)),
+                            _caller()))
+        return self
+
+    def exit_set(self, id, exits, choice=None, weights=None, fixed=None, interval=None, hysteresis=None,
+                 flow_capacity=None):
+        """<ExitSet>: the exits (a list of exit ids) an agent may leave by and the rule that picks
+        one: choice "nearest", "quickest", "fixed" (the exit `fixed`) or "weighted" (weights: one
+        number per exit)."""
+        names = exits if isinstance(exits, str) else " ".join(str(e) for e in exits)
+        w = weights if weights is None or isinstance(weights, str) else " ".join(_number(float(v)) for v in weights)
+        self._venue.append(("<ExitSet%s/>" % _attrs(dict(id=id, exits=names, choice=choice, weights=w, fixed=fixed,
+                                                          interval=interval, hysteresis=hysteresis,
+                                                          flow_capacity=flow_capacity)), _caller()))
+        return self
+
+    def journey(self, id, waypoints=(), leave_by=None):
+        """<Journey>: the waypoints in order, then leave by an exit or exit set (leave_by, its id).
+        A waypoint is a target id, or (target, dwell) or (target, dwell, capacity): dwell s spent
+        inside it, at most `capacity` people inside at once (a checkpoint)."""
+        parts = []
+        for w in waypoints:
+            if isinstance(w, str):
+                w = (w,)
+            target, dwell, capacity = (tuple(w) + (None, None))[:3]
+            parts.append("<Waypoint%s/>" % _attrs(dict(target=target, dwell=dwell, capacity=capacity)))
+        attrs = _attrs(dict(id=id, leave_by=leave_by))
+        xml = ("<Journey%s>%s</Journey>" % (attrs, "".join(parts))) if parts else "<Journey%s/>" % attrs
+        self._venue.append((xml, _caller()))
         return self
 
     # ---- policies ---------------------------------------------------------------------------
@@ -127,11 +185,13 @@ class Scenario:
 
     # ---- agents -----------------------------------------------------------------------------
     def agent(self, x, y, goal=None, policy=0, id=None, radius=None, pref_speed=None, max_speed=None,
-              max_acceleration=None, mass=None, remove_at_goal=None, goal_radius=None, start_time=None, group=None):
-        """One agent at (x, y) m walking to goal (x, y) with the given policy id."""
+              max_acceleration=None, mass=None, remove_at_goal=None, goal_radius=None, start_time=None, group=None,
+              journey=None, premovement=None):
+        """One agent at (x, y) m walking to goal (x, y), or following a journey (its id), with the
+        given policy id."""
         attrs = dict(id=id, rad=radius, pref_speed=pref_speed, max_speed=max_speed, max_acceleration=max_acceleration,
                      mass=mass, remove_at_goal=remove_at_goal, goal_radius=goal_radius, start_time=start_time,
-                     group=group)
+                     group=group, journey=journey, premovement=premovement)
         inner = "<pos%s/>" % _attrs(dict(x=float(x), y=float(y)))
         if goal is not None:
             inner += "<goal%s/>" % _attrs(dict(x=float(goal[0]), y=float(goal[1])))
@@ -146,7 +206,53 @@ class Scenario:
             self.agent(float(x), float(y), goal=goal, **attributes)
         return self
 
+    def agent_grid(self, x, y, columns, rows, spacing=None, goal=None, policy=0, rad_min=None, rad_max=None,
+                   pref_speed=None, max_speed=None, max_acceleration=None, remove_at_goal=None, goal_radius=None,
+                   start_time=None, premovement=None, journey=None, group_size=None):
+        """<AgentGrid>: columns x rows agents from (x, y) m, `spacing` m apart, radii drawn from
+        [rad_min, rad_max] by the run's seed; they walk to goal (x, y) or follow a journey."""
+        attrs = dict(x=x, y=y, columns=columns, rows=rows, spacing=spacing, rad_min=rad_min, rad_max=rad_max,
+                     pref_speed=pref_speed, max_speed=max_speed, max_acceleration=max_acceleration,
+                     remove_at_goal=remove_at_goal, goal_radius=goal_radius, start_time=start_time,
+                     premovement=premovement, journey=journey, group_size=group_size)
+        inner = "<Policy%s/>" % _attrs(dict(id=policy))
+        if goal is not None:
+            inner += "<goal%s/>" % _attrs(dict(x=float(goal[0]), y=float(goal[1])))
+        self._agents.append(("<AgentGrid%s>%s</AgentGrid>" % (_attrs(attrs), inner), _caller()))
+        return self
+
+    def source(self, policy=0, id=None, xmin=None, xmax=None, ymin=None, ymax=None, points=None, goal=None,
+               rates=None, draws=None, **attributes):
+        """<Source>: agents appearing over time in a rectangle (xmin, xmax, ymin, ymax) or polygon
+        (points). rates: a list of (time, value) (arrivals per second from that time on; else the
+        `rate` attribute); draws: a list of dicts of <Draw> attributes (attribute, distribution,
+        value, min, max, mean, sd, mu, sigma). Other attributes by their XML names: rate, start,
+        end, count, journey, rad, pref_speed, max_speed, premovement, max_acceleration,
+        remove_at_goal, group_size_min, group_size_max, group_share."""
+        attrs = dict(id=id, xmin=xmin, xmax=xmax, ymin=ymin, ymax=ymax, **attributes)
+        inner = "<Policy%s/>" % _attrs(dict(id=policy))
+        if goal is not None:
+            inner += "<goal%s/>" % _attrs(dict(x=float(goal[0]), y=float(goal[1])))
+        if points is not None:
+            inner += _points(points)
+        for time, value in rates or ():
+            inner += "<Rate%s/>" % _attrs(dict(time=time, value=value))
+        for d in draws or ():
+            inner += "<Draw%s/>" % _attrs(d)
+        self._agents.append(("<Source%s>%s</Source>" % (_attrs(attrs), inner), _caller()))
+        return self
+
     # ---- schedule and output ----------------------------------------------------------------
+    def close_exit(self, exit, time):
+        """<CloseExit>: the exit (its id) closes at `time` s; everyone leaving re-chooses."""
+        self._ramps.append(("<CloseExit%s/>" % _attrs(dict(exit=exit, time=time)), _caller()))
+        return self
+
+    def open_exit(self, exit, time):
+        """<OpenExit>: the exit (its id) opens (again) at `time` s."""
+        self._ramps.append(("<OpenExit%s/>" % _attrs(dict(exit=exit, time=time)), _caller()))
+        return self
+
     def ramp(self, component, parameter, start_value, end_value, start, end, policy=None):
         """<Ramp>: moves component.parameter from start_value (at `start` s) to end_value (at `end`)."""
         self._ramps.append(("<Ramp%s/>" % _attrs(dict(component=component, policy=policy, parameter=parameter,
@@ -206,6 +312,9 @@ class Scenario:
         out.append(("<World%s>" % _attrs(dict(type=kind, **bounds)), origin))
         for xml, origin in self._obstacles:
             out.append((xml, origin))
+        if self._navigation is not None:
+            out.append(self._navigation)
+        out.extend(self._venue)
         out.append(("</World>", None))
         out.append(("<Policies>", None))
         for pid, (attrs, steps, health, origin) in self._policies.items():

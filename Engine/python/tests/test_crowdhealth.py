@@ -297,6 +297,118 @@ def test_safety_and_measurement_errors_name_the_builder_call():
     assert "test_crowdhealth.py:%d:" % (sys._getframe().f_lineno - 3) in str(e.value)
 
 
+# A small venue by hand: a hall with a pillar and two exits in its east wall (an exit set chosen by
+# the quickest rule; the north exit closed from 10 s to 20 s), a checkpoint desk on one journey, a
+# kiosk where one person stays, a grid of people and a source (the builder test rebuilds it).
+VENUE_XML = """<?xml version="1.0" encoding="utf-8"?>
+<Simulation delta_time="0.1" end_time="40" seed="3">
+\t<World type="Planar" xmin="-1" xmax="21" ymin="-1" ymax="11">
+\t\t<Obstacle><Point x="0" y="0"/><Point x="18" y="0"/></Obstacle>
+\t\t<Obstacle><Point x="0" y="10"/><Point x="18" y="10"/></Obstacle>
+\t\t<Obstacle><Point x="0" y="0"/><Point x="0" y="10"/></Obstacle>
+\t\t<Obstacle><Point x="18" y="0"/><Point x="18" y="2"/></Obstacle>
+\t\t<Obstacle><Point x="18" y="3.5"/><Point x="18" y="6.5"/></Obstacle>
+\t\t<Obstacle><Point x="18" y="8"/><Point x="18" y="10"/></Obstacle>
+\t\t<Box x="8" y="4" width="1.5" height="2"/>
+\t\t<Navigation cell_size="0.25" clearance="0.4"/>
+\t\t<Target id="desk"><Point x="4" y="7"/><Point x="6" y="7"/><Point x="5" y="8.5"/></Target>
+\t\t<Target id="kiosk" x="12" y="2.5" radius="0.6"/>
+\t\t<Exit id="south" xmin="18.2" xmax="19" ymin="2" ymax="3.5" width="1.5"/>
+\t\t<Exit id="north" xmin="18.2" xmax="19" ymin="6.5" ymax="8" width="1.5"/>
+\t\t<ExitSet id="east" exits="south north" choice="quickest" interval="1" flow_capacity="1.2"/>
+\t\t<Journey id="via-desk" leave_by="east"><Waypoint target="desk" dwell="1" capacity="2"/></Journey>
+\t\t<Journey id="out" leave_by="east"/>
+\t\t<Journey id="shop"><Waypoint target="kiosk"/></Journey>
+\t</World>
+\t<Policies>
+\t\t<Policy id="0" ContactForceScale="62.5">
+\t\t\t<Step DeltaTime="coarse" OptimizationMethod="gradient" RelaxationTime="0.5">
+\t\t\t\t<CostFunction name="SocialForcesAvoidance" range="5" R="0.1"/>
+\t\t\t\t<CostFunction name="GoalReachingForce"/>
+\t\t\t</Step>
+\t\t</Policy>
+\t</Policies>
+\t<Schedule><CloseExit exit="north" time="10"/><OpenExit exit="north" time="20"/></Schedule>
+\t<Output metrics_interval="1"/>
+\t<Agents>
+\t\t<AgentGrid x="1" y="1" columns="4" rows="3" spacing="0.9" rad_min="0.2" rad_max="0.25" journey="via-desk">
+\t\t\t<Policy id="0"/>
+\t\t</AgentGrid>
+\t\t<Agent rad="0.25" journey="shop" premovement="2"><pos x="2" y="5"/><Policy id="0"/></Agent>
+\t\t<Source id="door" xmin="1" xmax="3" ymin="3.5" ymax="6" end="8" journey="out" max_speed="2">
+\t\t\t<Policy id="0"/><Rate time="0" value="1"/><Rate time="4" value="2"/>
+\t\t\t<Draw attribute="pref_speed" distribution="normal" mean="1.3" sd="0.2" min="0.9" max="1.7"/>
+\t\t</Source>
+\t</Agents>
+</Simulation>
+"""
+
+
+def venue_in_code():
+    s = crowdhealth.Scenario(delta_time=0.1, end_time=40, seed=3)
+    s.world("planar", xmin=-1, xmax=21, ymin=-1, ymax=11)
+    for wall in [[(0, 0), (18, 0)], [(0, 10), (18, 10)], [(0, 0), (0, 10)], [(18, 0), (18, 2)], [(18, 3.5), (18, 6.5)],
+                 [(18, 8), (18, 10)]]:
+        s.obstacle(wall)
+    s.box(8, 4, 1.5, 2)
+    s.navigation(cell_size=0.25, clearance=0.4)
+    s.target("desk", points=[(4, 7), (6, 7), (5, 8.5)])
+    s.target("kiosk", x=12, y=2.5, radius=0.6)
+    s.exit("south", xmin=18.2, xmax=19, ymin=2, ymax=3.5, width=1.5)
+    s.exit("north", xmin=18.2, xmax=19, ymin=6.5, ymax=8, width=1.5)
+    s.exit_set("east", ["south", "north"], choice="quickest", interval=1, flow_capacity=1.2)
+    s.journey("via-desk", [("desk", 1, 2)], leave_by="east")
+    s.journey("out", leave_by="east")
+    s.journey("shop", ["kiosk"])
+    s.policy(0, [("SocialForcesAvoidance", {"range": 5, "R": 0.1}), "GoalReachingForce"], relaxation_time=0.5,
+             contact_force_scale=62.5)
+    s.close_exit("north", 10).open_exit("north", 20)
+    s.output(metrics_interval=1)
+    s.agent_grid(1, 1, 4, 3, spacing=0.9, rad_min=0.2, rad_max=0.25, journey="via-desk")
+    s.agent(2, 5, radius=0.25, journey="shop", premovement=2)
+    s.source(id="door", xmin=1, xmax=3, ymin=3.5, ymax=6, end=8, journey="out", max_speed=2,
+             rates=[(0, 1), (4, 2)],
+             draws=[dict(attribute="pref_speed", distribution="normal", mean=1.3, sd=0.2, min=0.9, max=1.7)])
+    return s
+
+
+def test_venue_in_code_equals_the_xml_file(tmp_path):
+    path = tmp_path / "venue.xml"
+    path.write_text(VENUE_XML)
+    with warnings_as_errors():
+        a = crowdhealth.Simulation(path)
+        b = crowdhealth.Simulation(venue_in_code())
+    assert a.agent_count == b.agent_count == 14  # the grid's 12, the shopper, the source's first arrival
+    assert a.pending == b.pending > 0  # the source's other arrivals
+    a.run(), b.run()
+    assert np.array_equal(a.positions(), b.positions())
+    a.write_outputs(str(tmp_path / "a"))
+    b.write_outputs(str(tmp_path / "b"))
+    for name in ["metrics.csv", "health.csv", "evacuations.csv"]:
+        assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes(), name
+    # People left by both exits, through the desk's journey and from the source; the one at the
+    # kiosk stays.
+    rows = (tmp_path / "b" / "evacuations.csv").read_text().splitlines()
+    assert b.evacuated >= 15 and b.agent_count >= 1
+    assert any(",south" in r for r in rows[1:]) and any(",north" in r for r in rows[1:])
+    # and the program runs the builder's file to the same evacuations
+    (tmp_path / "built.xml").write_text(venue_in_code().to_xml())
+    prog = run_program(tmp_path / "built.xml", tmp_path / "prog")
+    assert (prog / "evacuations.csv").read_bytes() == (tmp_path / "b" / "evacuations.csv").read_bytes()
+
+
+def test_venue_errors_name_the_builder_call():
+    s = venue_in_code().exit_set("west", ["south", "nowhere"])
+    with pytest.raises(crowdhealth.ScenarioError) as e:
+        crowdhealth.Simulation(s)
+    assert "test_crowdhealth.py:%d:" % (sys._getframe().f_lineno - 3) in str(e.value)
+    assert "nowhere" in str(e.value)
+    s = venue_in_code().source(xmin=1, xmax=3, ymin=3.5, ymax=6, count=5, rates=[(0, -1)])
+    with pytest.raises(crowdhealth.ScenarioError) as e:
+        crowdhealth.Simulation(s)
+    assert "test_crowdhealth.py:%d:" % (sys._getframe().f_lineno - 3) in str(e.value)
+
+
 def test_scenario_in_code_is_checked_by_the_loader():
     s = crossing_in_code()
     s.agent(5, 2, goal=(1, 1), policy=3)  # no policy 3
@@ -381,6 +493,22 @@ def test_the_docs_builder_example_loads_and_runs(tmp_path):
     rows = [r.split(",") for r in (tmp_path / "out" / "flows.csv").read_text().splitlines()[1:]]
     assert sum(int(r[3]) for r in rows if r[1] == "middle") == 3
     assert sum(int(r[4]) for r in rows if r[1] == "middle") == 0
+
+
+def test_the_docs_venue_example_loads_and_runs(tmp_path):
+    text = (SRC / "docs" / "python.md").read_text()
+    m = re.search(r"<!-- venue example: run by Engine/python/tests -->\s*```python\n(.*?)```", text, re.S)
+    assert m, "docs/python.md lost its venue example"
+    scope = {"np": np, "crowdhealth": crowdhealth}
+    with warnings_as_errors():
+        exec(m.group(1), scope)
+    sim = scope["venue"]
+    assert sim.agent_count == 21 and sim.pending > 0  # the grid's 20 and the source's first arrival
+    sim.run()
+    sim.write_outputs(str(tmp_path / "out"))
+    rows = (tmp_path / "out" / "evacuations.csv").read_text().splitlines()[1:]
+    assert sim.evacuated == len(rows) == 35 and sim.agent_count == 0  # the grid's 20 and 15 arrivals, all out
+    assert any(",south" in r for r in rows) and any(",north" in r for r in rows)
 
 
 @pytest.mark.parametrize("example", sorted(p.name for p in (SRC / "Examples" / "python").glob("*.py")))
