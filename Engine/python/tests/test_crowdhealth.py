@@ -214,18 +214,24 @@ def test_set_parameter_changes_motion(tmp_path):
         sims[0].set_parameter(0, "SPH", "viscosity", 1)
 
 
+def run_alike(tmp_path, a, b, names):
+    """Runs the simulations a and b to their end: the same places at the end, and the files `names`
+    the same bytes (written into tmp_path/a and tmp_path/b)."""
+    a.run(), b.run()
+    assert np.array_equal(a.positions(), b.positions())
+    a.write_outputs(str(tmp_path / "a"))
+    b.write_outputs(str(tmp_path / "b"))
+    for name in names:
+        assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes(), name
+
+
 def test_scenario_in_code_equals_the_xml_file(tmp_path):
     path = tmp_path / "crossing.xml"
     path.write_text(CROSSING_XML)
     a = crowdhealth.Simulation(path)
     b = crowdhealth.Simulation(crossing_in_code())
     assert a.agent_count == b.agent_count == 4
-    a.run(), b.run()
-    assert np.array_equal(a.positions(), b.positions())
-    a.write_outputs(str(tmp_path / "a"))
-    b.write_outputs(str(tmp_path / "b"))
-    for name in ["metrics.csv", "health.csv", "evacuations.csv"]:
-        assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes(), name
+    run_alike(tmp_path, a, b, ["metrics.csv", "health.csv", "evacuations.csv"])
     # and the program runs the builder's file to the same metrics
     (tmp_path / "built.xml").write_text(crossing_in_code().to_xml())
     prog = run_program(tmp_path / "built.xml", tmp_path / "prog")
@@ -263,12 +269,7 @@ def test_panic_safety_and_measurement_in_code_equal_the_xml_file(tmp_path):
     path.write_text(CROSSING_MEASURED_XML)
     a = crowdhealth.Simulation(path)
     b = crowdhealth.Simulation(crossing_measured_in_code())
-    a.run(), b.run()
-    assert np.array_equal(a.positions(), b.positions())
-    a.write_outputs(str(tmp_path / "a"))
-    b.write_outputs(str(tmp_path / "b"))
-    for name in ["metrics.csv", "health.csv", "heatmap.csv", "flows.csv", "areas.csv"]:
-        assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes(), name
+    run_alike(tmp_path, a, b, ["metrics.csv", "health.csv", "heatmap.csv", "flows.csv", "areas.csv"])
     flows = (tmp_path / "b" / "flows.csv").read_text()
     assert "middle" in flows and "west" in (tmp_path / "b" / "areas.csv").read_text()
     heat = (tmp_path / "b" / "heatmap.csv").read_text().splitlines()
@@ -380,12 +381,7 @@ def test_venue_in_code_equals_the_xml_file(tmp_path):
         b = crowdhealth.Simulation(venue_in_code())
     assert a.agent_count == b.agent_count == 14  # the grid's 12, the shopper, the source's first arrival
     assert a.pending == b.pending > 0  # the source's other arrivals
-    a.run(), b.run()
-    assert np.array_equal(a.positions(), b.positions())
-    a.write_outputs(str(tmp_path / "a"))
-    b.write_outputs(str(tmp_path / "b"))
-    for name in ["metrics.csv", "health.csv", "evacuations.csv"]:
-        assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes(), name
+    run_alike(tmp_path, a, b, ["metrics.csv", "health.csv", "evacuations.csv"])
     # People left by both exits, through the desk's journey and from the source; the one at the
     # kiosk stays.
     rows = (tmp_path / "b" / "evacuations.csv").read_text().splitlines()
@@ -475,16 +471,22 @@ def test_the_docs_example_runs(tmp_path):
     assert (tmp_path / "out" / "metrics.csv").exists()
 
 
-def test_the_docs_builder_example_loads_and_runs(tmp_path):
-    # The Scenario block of docs/python.md, as written there (its ramp once named a parameter that
-    # cannot be ramped, and the page's example went on being refused unnoticed).
+def docs_block(name):
+    """Runs the code block of docs/python.md marked `<!-- NAME example: run by Engine/python/tests -->`
+    as written there (no scenario warning allowed) and returns its variables."""
     text = (SRC / "docs" / "python.md").read_text()
-    m = re.search(r"<!-- builder example: run by Engine/python/tests -->\s*```python\n(.*?)```", text, re.S)
-    assert m, "docs/python.md lost its builder example"
+    m = re.search(r"<!-- %s example: run by Engine/python/tests -->\s*```python\n(.*?)```" % name, text, re.S)
+    assert m, "docs/python.md lost its %s example" % name
     scope = {"np": np, "crowdhealth": crowdhealth}
     with warnings_as_errors():
         exec(m.group(1), scope)
-    sim = scope["sim"]
+    return scope
+
+
+def test_the_docs_builder_example_loads_and_runs(tmp_path):
+    # The Scenario block of docs/python.md, as written there (its ramp once named a parameter that
+    # cannot be ramped, and the page's example went on being refused unnoticed).
+    sim = docs_block("builder")["sim"]
     sim.run()
     sim.write_outputs(str(tmp_path / "out"))
     for name in ["metrics.csv", "heatmap.csv", "flows.csv", "areas.csv"]:
@@ -496,13 +498,7 @@ def test_the_docs_builder_example_loads_and_runs(tmp_path):
 
 
 def test_the_docs_venue_example_loads_and_runs(tmp_path):
-    text = (SRC / "docs" / "python.md").read_text()
-    m = re.search(r"<!-- venue example: run by Engine/python/tests -->\s*```python\n(.*?)```", text, re.S)
-    assert m, "docs/python.md lost its venue example"
-    scope = {"np": np, "crowdhealth": crowdhealth}
-    with warnings_as_errors():
-        exec(m.group(1), scope)
-    sim = scope["venue"]
+    sim = docs_block("venue")["venue"]
     assert sim.agent_count == 21 and sim.pending > 0  # the grid's 20 and the source's first arrival
     sim.run()
     sim.write_outputs(str(tmp_path / "out"))
