@@ -268,26 +268,18 @@ CH_PAIRS_AVX512 CH_PAIRS_NO_CONTRACT double densityAvx512(const DensityInput& in
     return rho;
 }
 
-/// Up to eight entries of a list in lanes: offsets x, y and agent indices j (list_lanes.h's
-/// Entries8 without its mask).
-struct Lanes8 {
-    __m512d x, y;
-    __m256i j;
-};
-
-/// ContactForces' agent springs over the first `n` (1 ≤ n ≤ 8) lanes of `c`, entries already
-/// within reach2 in list order: the scalar build's remaining tests and terms, the terms of the
-/// lanes that fail a test set to +0 and all eight added in lane order (see sphAvx512).
+/// ContactForces' agent springs over the live lanes of `c` (entries already within reach2, in list
+/// order): the scalar build's remaining tests and terms, the terms of the lanes that fail a test
+/// set to +0 and all eight added in lane order (see sphAvx512).
 CH_PAIRS_AVX512 CH_PAIRS_NO_CONTRACT [[gnu::always_inline]] inline void contactLanes(const ContactInput& in,
-                                                                                  const Lanes8& c, std::size_t n,
+                                                                                  const lanes::Entries8& c,
                                                                                   double& ax, double& ay) {
     const __m512d own = _mm512_set1_pd(in.radiusI), stiffness = _mm512_set1_pd(in.stiffness);
     const __m512d tiny = _mm512_set1_pd(1e-12), zero = _mm512_setzero_pd();
     const __m512i signBit = _mm512_set1_epi64(static_cast<long long>(0x8000000000000000ULL));
-    const __mmask8 live = static_cast<__mmask8>((1u << n) - 1u);
     const __m512d d2 = _mm512_add_pd(_mm512_mul_pd(c.x, c.x), _mm512_mul_pd(c.y, c.y));
-    const __m512d reach = _mm512_add_pd(own, _mm512_mask_i32gather_pd(zero, live, c.j, in.radius, 8));
-    __mmask8 use = live & _mm512_cmp_pd_mask(d2, _mm512_mul_pd(reach, reach), _CMP_NGE_UQ);
+    const __m512d reach = _mm512_add_pd(own, column8(in.radius, c));
+    __mmask8 use = c.live & _mm512_cmp_pd_mask(d2, _mm512_mul_pd(reach, reach), _CMP_NGE_UQ);
     const __m512d r = _mm512_maskz_sqrt_pd(0xff, d2);
     const __m512d overlap = _mm512_sub_pd(reach, r);
     use &= _mm512_cmp_pd_mask(overlap, zero, _CMP_GT_OQ) & _mm512_cmp_pd_mask(r, tiny, _CMP_GT_OQ);
@@ -306,8 +298,9 @@ CH_PAIRS_AVX512 CH_PAIRS_NO_CONTRACT [[gnu::always_inline]] inline void contactL
 /// ContactForces' agent springs (issue 20). The list is read eight entries at a time and only
 /// those within reach2 (the scalar build's first filter: in a dense crowd ~4 of an SPH list's
 /// ~16) are kept, packed in list order into the lanes of `kept` (compressed from their group,
-/// expanded after the entries already kept). Each time eight are kept, and at the end, their
-/// terms are computed and added in order. So the neighbours' radii, the square roots, the
+/// expanded after the entries already kept; the lanes not in use hold zeros, whose terms the
+/// r > 1e-12 test drops anyway, and `live` covers them only at the last call). Each time eight
+/// are kept, and at the end, their terms are computed and added in order. So the neighbours' radii, the square roots, the
 /// divisions and the additions are spent on those entries only, and the sum is the scalar
 /// build's bit for bit: the entries dropped are those whose terms it skips.
 template <class Lanes>
@@ -315,7 +308,7 @@ CH_PAIRS_AVX512 CH_PAIRS_NO_CONTRACT Vec2 contactAvx512(const ContactInput& in, 
     const __m512d reach2 = _mm512_set1_pd(in.reach2);
     const __m512i iota = _mm512_set_epi64(7, 6, 5, 4, 3, 2, 1, 0);
     const __m256i iota32 = _mm256_set_epi32(7, 6, 5, 4, 3, 2, 1, 0);
-    Lanes8 kept{_mm512_setzero_pd(), _mm512_setzero_pd(), _mm256_setzero_si256()};
+    lanes::Entries8 kept{_mm512_setzero_pd(), _mm512_setzero_pd(), _mm256_setzero_si256(), 0xff};
     unsigned held = 0;  // lanes of `kept` in use, from lane 0
     double ax = 0, ay = 0;
     list.prefetch(in.count);
@@ -332,10 +325,10 @@ CH_PAIRS_AVX512 CH_PAIRS_NO_CONTRACT Vec2 contactAvx512(const ContactInput& in, 
         const __mmask8 into = static_cast<__mmask8>(((1u << p) - 1u) << held);
         kept.x = _mm512_mask_expand_pd(kept.x, into, x);
         kept.y = _mm512_mask_expand_pd(kept.y, into, y);
-        kept.j = _mm256_mask_expand_epi32(kept.j, into, j);
+        kept.index = _mm256_mask_expand_epi32(kept.index, into, j);
         held += p;
         if (held < 8) continue;
-        contactLanes(in, kept, 8, ax, ay);
+        contactLanes(in, kept, ax, ay);  // all eight live
         // Those that did not fit, from lane 8 − (held − p) of the packed group, to lane 0.
         held -= 8;
         const unsigned from = p - held;
@@ -344,9 +337,12 @@ CH_PAIRS_AVX512 CH_PAIRS_NO_CONTRACT Vec2 contactAvx512(const ContactInput& in, 
         const __m256i from32 = _mm256_add_epi32(iota32, _mm256_set1_epi32(static_cast<int>(from)));
         kept.x = _mm512_maskz_permutexvar_pd(rest, from64, x);
         kept.y = _mm512_maskz_permutexvar_pd(rest, from64, y);
-        kept.j = _mm256_maskz_permutexvar_epi32(rest, from32, j);
+        kept.index = _mm256_maskz_permutexvar_epi32(rest, from32, j);
     }
-    if (held > 0) contactLanes(in, kept, held, ax, ay);
+    if (held > 0) {
+        kept.live = static_cast<__mmask8>((1u << held) - 1u);
+        contactLanes(in, kept, ax, ay);
+    }
     return {ax, ay};
 }
 #endif

@@ -40,6 +40,19 @@ def _points(points):
     return "".join("<Point%s/>" % _attrs(dict(x=float(x), y=float(y))) for x, y in points)
 
 
+def _goal(goal):
+    """A <goal x y/> child for goal (x, y), or nothing for None."""
+    return "" if goal is None else "<goal%s/>" % _attrs(dict(x=float(goal[0]), y=float(goal[1])))
+
+
+def _place(tag, id, x, y, radius, xmin, xmax, ymin, ymax, points, extra):
+    """A <Target> or <Exit> element: a point, a rectangle or a polygon (points)."""
+    attrs = _attrs(dict(id=id, x=x, y=y, radius=radius, xmin=xmin, xmax=xmax, ymin=ymin, ymax=ymax, **extra))
+    if points is None:
+        return "<%s%s/>" % (tag, attrs)
+    return "<%s%s>%s</%s>" % (tag, attrs, _points(points), tag)
+
+
 def _caller():
     """file:line of the user's call into the builder (for error messages)."""
     here = os.path.dirname(os.path.abspath(__file__))
@@ -102,23 +115,17 @@ class Scenario:
                                                               min_speed=min_speed, margin=margin)), _caller())
         return self
 
-    def _place(self, tag, id, x, y, radius, xmin, xmax, ymin, ymax, points, extra):
-        attrs = _attrs(dict(id=id, x=x, y=y, radius=radius, xmin=xmin, xmax=xmax, ymin=ymin, ymax=ymax, **extra))
-        if points is None:
-            return "<%s%s/>" % (tag, attrs)
-        return "<%s%s>%s</%s>" % (tag, attrs, _points(points), tag)
-
     def target(self, id, x=None, y=None, radius=None, xmin=None, xmax=None, ymin=None, ymax=None, points=None):
         """<Target>: a named place, one shape of three: a point (x, y; reached within radius), a
         rectangle (xmin, xmax, ymin, ymax) or a polygon (points: a list of (x, y))."""
-        self._venue.append((self._place("Target", id, x, y, radius, xmin, xmax, ymin, ymax, points, {}), _caller()))
+        self._venue.append((_place("Target", id, x, y, radius, xmin, xmax, ymin, ymax, points, {}), _caller()))
         return self
 
     def exit(self, id, x=None, y=None, radius=None, xmin=None, xmax=None, ymin=None, ymax=None, points=None,
              width=None):
         """<Exit>: a target where people leave the simulation (shapes as target()); width is its
         clear width in m (the quickest rule's capacity)."""
-        self._venue.append((self._place("Exit", id, x, y, radius, xmin, xmax, ymin, ymax, points, dict(width=width)),
+        self._venue.append((_place("Exit", id, x, y, radius, xmin, xmax, ymin, ymax, points, dict(width=width)),
                             _caller()))
         return self
 
@@ -193,8 +200,7 @@ class Scenario:
                      mass=mass, remove_at_goal=remove_at_goal, goal_radius=goal_radius, start_time=start_time,
                      group=group, journey=journey, premovement=premovement)
         inner = "<pos%s/>" % _attrs(dict(x=float(x), y=float(y)))
-        if goal is not None:
-            inner += "<goal%s/>" % _attrs(dict(x=float(goal[0]), y=float(goal[1])))
+        inner += _goal(goal)
         inner += "<Policy%s/>" % _attrs(dict(id=policy))
         self._agents.append(("<Agent%s>%s</Agent>" % (_attrs(attrs), inner), _caller()))
         return self
@@ -216,8 +222,7 @@ class Scenario:
                      remove_at_goal=remove_at_goal, goal_radius=goal_radius, start_time=start_time,
                      premovement=premovement, journey=journey, group_size=group_size)
         inner = "<Policy%s/>" % _attrs(dict(id=policy))
-        if goal is not None:
-            inner += "<goal%s/>" % _attrs(dict(x=float(goal[0]), y=float(goal[1])))
+        inner += _goal(goal)
         self._agents.append(("<AgentGrid%s>%s</AgentGrid>" % (_attrs(attrs), inner), _caller()))
         return self
 
@@ -231,8 +236,7 @@ class Scenario:
         remove_at_goal, group_size_min, group_size_max, group_share."""
         attrs = dict(id=id, xmin=xmin, xmax=xmax, ymin=ymin, ymax=ymax, **attributes)
         inner = "<Policy%s/>" % _attrs(dict(id=policy))
-        if goal is not None:
-            inner += "<goal%s/>" % _attrs(dict(x=float(goal[0]), y=float(goal[1])))
+        inner += _goal(goal)
         if points is not None:
             inner += _points(points)
         for time, value in rates or ():
