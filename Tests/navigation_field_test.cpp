@@ -461,3 +461,88 @@ BOOST_AUTO_TEST_CASE(a_target_drawn_across_a_door_leads_through_its_middle_not_p
         BOOST_TEST(p.x() <= 5.6 - 0.3, "from " << start.transpose() << " entered at x = " << p.x());
     }
 }
+
+BOOST_AUTO_TEST_CASE(eight_agents_at_once_are_sampled_as_one_by_one_in_every_build) {
+    // WalkableGrid::probe8 and DistanceField::sample8 (Navigation's loop over agents): every lane
+    // of every build this CPU runs must give probe()'s numbers and, where sample8 takes the short
+    // way, sample()'s direction and distance to the last bit; each build must take it in the same
+    // lanes. Positions cover a grid with a pillar, a wall, a closed room and two targets, its
+    // edges and far off it, with groups of 1 … 8 agents and lanes on different fields or none.
+    const World world(WorldSpec{}, {box(8, 4, 10, 6), wall(Vec2(3, 1), Vec2(5, 3.5)), box(12, 7, 12.2, 9.4),
+                                    box(12, 9.2, 15, 9.4), box(14.8, 7, 15, 9.4), box(12, 7, 15, 7.2)});
+    const WalkableGrid grid(world, settings(0.2, 0.5), Vec2(0, 0), Vec2(20, 10));
+    TargetShape room;  // a polygon target
+    room.kind = TargetShape::Kind::Polygon;
+    room.polygon = {Vec2(1, 7), Vec2(2.5, 7), Vec2(2.5, 9), Vec2(1, 9)};
+    const DistanceField east(grid, pointTarget(Vec2(17, 5), 0.3)), west(grid, room);
+    const DistanceField* const fieldOf[3] = {&east, &west, nullptr};  // lane l: field (l·7 + group) % 3
+
+    std::vector<Vec2> pos;
+    for (double y = -0.31; y <= 10.3; y += 0.137)
+        for (double x = -0.33; x <= 20.3; x += 0.141) pos.emplace_back(x, y);
+    for (int k = -2; k <= 102; k += 3) pos.emplace_back(k * 0.2, 5.0 + (k % 7) * 0.1);  // on cell edges
+    for (int k = 0; k < 60; ++k) pos.emplace_back((k + 0.5) * 0.2 + 2, (k % 30 + 0.5) * 0.2);  // at centres
+    for (const double far : {-1e12, -3e9, 3e9, 1e12}) {
+        pos.emplace_back(far, 5.0);
+        pos.emplace_back(5.0, far);
+    }
+
+    const auto bitsOf = [](double v) {
+        std::uint64_t b;
+        std::memcpy(&b, &v, sizeof b);
+        return b;
+    };
+    const int saved = navigationSamplePath();
+    std::vector<unsigned> doneByBuild[2];
+    for (const int path : {0, 1}) {
+        if (!setNavigationSamplePath(path)) continue;
+        int done = 0, lanesSeen = 0;
+        std::size_t group = 0;
+        for (std::size_t lo = 0; lo < pos.size(); ++group) {
+            const int count = static_cast<int>(std::min<std::size_t>(1 + group % 8, pos.size() - lo));
+            WalkableGrid::Probe8 q;
+            grid.probe8(&pos[lo], count, q);
+            const DistanceField* fields[8] = {};
+            unsigned lanes = 0;
+            for (int l = 0; l < count; ++l) {
+                const WalkableGrid::Probe p = grid.probe(pos[lo + static_cast<std::size_t>(l)]);
+                BOOST_TEST_REQUIRE(((q.inGrid >> l) & 1u) == static_cast<unsigned>(p.inGrid));
+                BOOST_TEST_REQUIRE(((q.open >> l) & 1u) == static_cast<unsigned>(p.open));
+                if (p.inGrid) {
+                    BOOST_TEST_REQUIRE(bitsOf(q.qx[l]) == bitsOf(p.qx));
+                    BOOST_TEST_REQUIRE(bitsOf(q.qy[l]) == bitsOf(p.qy));
+                    BOOST_TEST_REQUIRE(q.cx[l] == p.cx);
+                    BOOST_TEST_REQUIRE(q.cy[l] == p.cy);
+                    BOOST_TEST_REQUIRE(q.i0[l] == p.i0);
+                    BOOST_TEST_REQUIRE(q.j0[l] == p.j0);
+                    BOOST_TEST_REQUIRE(static_cast<std::size_t>(q.first[l]) == p.first);
+                }
+                fields[l] = fieldOf[(static_cast<std::size_t>(l) * 7 + group) % 3];
+                if (fields[l] != nullptr) lanes |= 1u << l;
+            }
+            Vec2 dir[8];
+            double dist[8];
+            const unsigned got = DistanceField::sample8(fields, q, lanes, dir, dist);
+            BOOST_TEST_REQUIRE((got & ~lanes) == 0u);
+            doneByBuild[path].push_back(got);
+            for (int l = 0; l < count; ++l) {
+                if (!((got >> l) & 1u)) continue;
+                const Vec2& p = pos[lo + static_cast<std::size_t>(l)];
+                double d = 0;
+                const Vec2 expected = fields[l]->sample(grid.probe(p), p, d);
+                BOOST_TEST_REQUIRE(bitsOf(dist[l]) == bitsOf(d), "at (" << p.x() << ", " << p.y() << ") build " << path);
+                BOOST_TEST_REQUIRE(bitsOf(dir[l].x()) == bitsOf(expected.x()));
+                BOOST_TEST_REQUIRE(bitsOf(dir[l].y()) == bitsOf(expected.y()));
+                ++done;
+            }
+            lanesSeen += __builtin_popcount(lanes);
+            lo += static_cast<std::size_t>(count);
+        }
+        BOOST_TEST_MESSAGE("build " << path << ": " << done << " of " << lanesSeen << " lanes took the short way");
+        // Most lanes lie on open floor and take the short way; near walls and targets they do not.
+        BOOST_TEST(done > lanesSeen / 2);
+        BOOST_TEST(done < lanesSeen * 9 / 10);
+    }
+    if (!doneByBuild[1].empty()) BOOST_TEST(doneByBuild[0] == doneByBuild[1], boost::test_tools::per_element());
+    setNavigationSamplePath(saved);
+}

@@ -13,6 +13,7 @@
 #include "crowdhealth/io/output.h"
 #include "crowdhealth/core/registry.h"
 #include "crowdhealth/health/safety.h"
+#include "crowdhealth/navigation/field.h"
 #include "crowdhealth/core/scenario.h"
 #include "crowdhealth/core/simulation.h"
 #include "crowdhealth/core/world.h"
@@ -996,7 +997,8 @@ void usage() {
                  "  --no-fork       run cases in this process (peak memory then accumulates)\n"
                  "  --isa NAME      the hand-vectorised loops' build to run: generic, avx2 or avx512 (default: the best this\n"
                  "                  CPU runs) for social forces' pair loop, the neighbour-list gather, the crowd field's\n"
-                 "                  scatter and the safety recorder's cells; the SPH and contact pair sums and UMANS' contact filter have no AVX2 build\n"
+                 "                  scatter and the safety recorder's cells; the SPH and contact pair sums, UMANS' contact filter and\n"
+                 "                  navigation's sampling have no AVX2 build\n"
                  "                  (generic below avx512), the health layer's end of step no AVX-512 build (avx2 from\n"
                  "                  avx2 up). The results are the same bits. Not the side-by-side case's program, nor the\n"
                  "                  process case's, which pick their own.\n"
@@ -1048,7 +1050,7 @@ int main(int argc, char** argv) {
             const int health = path >= 1 ? 1 : 0;
             if (!ch::SocialForcesAvoidance::setPairLoopPath(path) || !ch::NeighbourLists::setGatherPath(path) ||
                 !ch::setCrowdFieldPath(path) || !ch::pairs::setPath(wide) || !ch::setNearEntriesPath(wide) ||
-                !ch::HealthLayer::setEndStepPath(health)) {
+                !ch::HealthLayer::setEndStepPath(health) || !ch::setNavigationSamplePath(wide)) {
                 std::cerr << "--isa " << isa << ": this CPU does not run it\n";
                 return 2;
             }
@@ -1122,11 +1124,11 @@ int main(int argc, char** argv) {
                 load[0], load[1], load[2], omp_get_num_procs());
     static const char* const kIsa[] = {"generic", "avx2", "avx512"};
     std::printf("hand-vectorised loops: social forces' pair loop %s, neighbour-list gather %s, SPH and contact pair "
-                "sums %s, UMANS' contact filter %s, crowd field's scatter and safety cells %s, health layer's end of step %s "
-                "(--isa)\n",
+                "sums %s, UMANS' contact filter %s, crowd field's scatter and safety cells %s, health layer's end of step %s, "
+                "navigation's sampling %s (--isa)\n",
                 kIsa[ch::SocialForcesAvoidance::pairLoopPath()], kIsa[ch::NeighbourLists::gatherPath()],
                 kIsa[2 * ch::pairs::path()], kIsa[2 * ch::nearEntriesPath()], kIsa[ch::crowdFieldPath()],
-                kIsa[ch::HealthLayer::endStepPath()]);
+                kIsa[ch::HealthLayer::endStepPath()], kIsa[2 * ch::navigationSamplePath()]);
     std::printf("neighbour lists: %s\n", gStoredLists ? "stored at every step (--stored-lists)"
                                                       : "gathered agent by agent where no component reads them stored");
     std::printf("%-16s %8s %3s  %9s  %9s  %12s  %8s  %7s  %6s  %s\n", "scene", "agents", "thr", "ms/step", "min ms",

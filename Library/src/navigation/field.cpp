@@ -21,12 +21,19 @@
 // 4 per cell per field (+ 1 per cell and the heap while marching).
 #include "crowdhealth/navigation/field.h"
 
+#include "crowdhealth/core/cpu_features.h"
 #include "crowdhealth/core/world.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <queue>
+
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#include <immintrin.h>
+#endif
 
 namespace ch {
 
@@ -555,41 +562,47 @@ Vec2 DistanceField::sample(const Vec2& p, double& dist) const {
     return direction(p);
 }
 
+bool DistanceField::shortWay(const float* block, std::size_t nx, double h, double tx, double ty, int own, Vec2& dir,
+                             double& dist) {
+    // Open floor: the 4 × 4 block round p is walkable and in p's region (so reached when p's cell
+    // is), and the general rules reduce to bilinear T and bilinearly blended central differences.
+    double t[4][4];  // t[row][column] for cells (i0 − 1 … i0 + 2, j0 − 1 … j0 + 2)
+    const float* row = block;
+    for (int r = 0; r < 4; ++r, row += nx)
+        for (int c = 0; c < 4; ++c) t[r][c] = row[c];
+    // p's own cell is (i0 or i0 + 1, j0 or j0 + 1): unreached means no path from here.
+    if (!std::isfinite(t[own / 4][own % 4])) return false;
+    const double w00 = (1 - tx) * (1 - ty), w10 = tx * (1 - ty), w01 = (1 - tx) * ty, w11 = tx * ty;
+    dist = w00 * t[1][1] + w10 * t[1][2] + w01 * t[2][1] + w11 * t[2][2];
+    if (!(dist >= 2.0 * h)) return false;
+    auto gx = [&](int r, int c) { return t[r][c + 1] - t[r][c - 1]; };
+    auto gy = [&](int r, int c) { return t[r + 1][c] - t[r - 1][c]; };
+    const Vec2 grad(w00 * gx(1, 1) + w10 * gx(1, 2) + w01 * gx(2, 1) + w11 * gx(2, 2),
+                    w00 * gy(1, 1) + w10 * gy(1, 2) + w01 * gy(2, 1) + w11 * gy(2, 2));
+    dir = normalisedOrZero(-grad);
+    return !dir.isZero();
+}
+
 Vec2 DistanceField::sample(const WalkableGrid::Probe& q, const Vec2& p, double& dist) const {
+    // A block leaving the grid, or near a wall, takes the general way.
     if (grid_ != nullptr && seeded_ && q.open) {
-        // Open floor: the 4 × 4 block round p is walkable and in p's region (so reached when p's
-        // cell is), and the general rules reduce to bilinear T and bilinearly blended central
-        // differences. A block leaving the grid takes the general way.
-        const double h = grid_->cellSize();
-        const int i0 = q.i0, j0 = q.j0;
-        const double tx = (q.qx - 0.5) - i0, ty = (q.qy - 0.5) - j0;
-        const std::size_t nx = static_cast<std::size_t>(grid_->nx());
-        const float* row = &value_[q.first];
-        double t[4][4];  // t[row][column] for cells (i0 − 1 … i0 + 2, j0 − 1 … j0 + 2)
-        for (int r = 0; r < 4; ++r, row += nx)
-            for (int c = 0; c < 4; ++c) t[r][c] = row[c];
-        // p's own cell is (i0 or i0 + 1, j0 or j0 + 1): unreached means no path from here.
-        if (std::isfinite(t[q.cy - j0 + 1][q.cx - i0 + 1])) {
-            const double w00 = (1 - tx) * (1 - ty), w10 = tx * (1 - ty), w01 = (1 - tx) * ty, w11 = tx * ty;
-            dist = w00 * t[1][1] + w10 * t[1][2] + w01 * t[2][1] + w11 * t[2][2];
-            if (dist >= 2.0 * h) {
-                auto gx = [&](int r, int c) { return t[r][c + 1] - t[r][c - 1]; };
-                auto gy = [&](int r, int c) { return t[r + 1][c] - t[r - 1][c]; };
-                const Vec2 grad(w00 * gx(1, 1) + w10 * gx(1, 2) + w01 * gx(2, 1) + w11 * gx(2, 2),
-                                w00 * gy(1, 1) + w10 * gy(1, 2) + w01 * gy(2, 1) + w11 * gy(2, 2));
-                const Vec2 dir = normalisedOrZero(-grad);
-                if (!dir.isZero()) return dir;
-            }
-        }
+        Vec2 dir;
+        if (shortWay(&value_[q.first], static_cast<std::size_t>(grid_->nx()), grid_->cellSize(), (q.qx - 0.5) - q.i0,
+                     (q.qy - 0.5) - q.j0, (q.cy - q.j0 + 1) * 4 + (q.cx - q.i0 + 1), dir, dist))
+            return dir;
     }
     dist = distance(p);
     return direction(p);
 }
 
 void DistanceField::prefetch(const WalkableGrid::Probe& q) const {
-    if (grid_ == nullptr || !seeded_ || !q.inGrid) return;
+    if (q.inGrid) prefetch(q.first);
+}
+
+void DistanceField::prefetch(std::size_t first) const {
+    if (grid_ == nullptr || !seeded_) return;
     const std::size_t nx = static_cast<std::size_t>(grid_->nx());
-    const float* row = &value_[q.first];
+    const float* row = &value_[first];
     for (int r = 0; r < 4; ++r, row += nx) {
         __builtin_prefetch(row);
         __builtin_prefetch(row + 3);  // the row's last cell, when the four straddle two cache lines
@@ -637,6 +650,194 @@ Vec2 DistanceField::direction(const Vec2& p) const {
     }
     if (dir.isZero()) return steepestNeighbour(p, cx, cy);
     return keepOffWalls(p, cx, cy, dir);
+}
+
+// ---- Eight agents at once (issue 20) ----------------------------------------------------------
+//
+// WalkableGrid::probe8 and DistanceField::sample8: probe() and sample()'s short way for eight
+// positions in the lanes of AVX-512 registers, with the scalar code's operations one by one in
+// the same order and no fused multiply-add (fp-contract=off), so every lane has the scalar code's
+// bits (Tests/navigation_field_test.cpp compares them everywhere on grids with walls, targets and
+// edges). The lanes whose short way does not apply are left to sample(): near walls, targets and
+// the grid's edges, a few per cent of a crowd on open floor.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define CH_NAV_X86 1
+#define CH_NAV_AVX512 __attribute__((target("avx512f,avx512dq,avx512vl"), optimize("fp-contract=off")))
+#endif
+
+namespace {
+
+std::atomic<int> gSamplePath{cpu::hasAvx512() ? 1 : 0};
+
+#ifdef CH_NAV_X86
+/// probe() in eight lanes (lanes ≥ count left out). Positions whose cell numbers would not fit an
+/// int (|q| ≥ 2^30 cells) lie far off any grid: left out of inGrid, as probe() leaves them.
+CH_NAV_AVX512 void probe8Avx512(const Vec2* pos, int count, const Vec2& origin, double h, int nx, int ny,
+                                const std::uint64_t* openBits, WalkableGrid::Probe8& q) {
+    const __mmask8 live = static_cast<__mmask8>((1u << count) - 1u);
+    // The positions' words: x of lane l is word 2l of the column, y word 2l + 1.
+    const double* w = pos[0].data();
+    const int lowWords = std::min(count, 4) * 2, highWords = std::max(count - 4, 0) * 2;
+    const __m512d a = _mm512_maskz_loadu_pd(static_cast<__mmask8>((1u << lowWords) - 1u), w);
+    const __m512d b = highWords > 0 ? _mm512_maskz_loadu_pd(static_cast<__mmask8>((1u << highWords) - 1u), w + 8)
+                                    : _mm512_setzero_pd();
+    const __m512d x = _mm512_permutex2var_pd(a, _mm512_setr_epi64(0, 2, 4, 6, 8, 10, 12, 14), b);
+    const __m512d y = _mm512_permutex2var_pd(a, _mm512_setr_epi64(1, 3, 5, 7, 9, 11, 13, 15), b);
+    const __m512d hv = _mm512_set1_pd(h);
+    const __m512d qx = _mm512_div_pd(_mm512_sub_pd(x, _mm512_set1_pd(origin.x())), hv);
+    const __m512d qy = _mm512_div_pd(_mm512_sub_pd(y, _mm512_set1_pd(origin.y())), hv);
+    const __m512d limit = _mm512_set1_pd(1073741824.0), half = _mm512_set1_pd(0.5);
+    const __mmask8 fits = _mm512_mask_cmp_pd_mask(live, _mm512_abs_pd(qx), limit, _CMP_LT_OQ) &
+                          _mm512_cmp_pd_mask(_mm512_abs_pd(qy), limit, _CMP_LT_OQ);
+    // ⌊v⌋ as an int (floorToInt), for the lanes that fit; 0 in the others.
+    auto floorInt = [&](__m512d v) {
+        return _mm512_maskz_cvttpd_epi32(fits, _mm512_roundscale_pd(v, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC));
+    };
+    const __m256i cx = floorInt(qx), cy = floorInt(qy);
+    const __m256i i0 = floorInt(_mm512_sub_pd(qx, half)), j0 = floorInt(_mm512_sub_pd(qy, half));
+    const __m256i one = _mm256_set1_epi32(1), two = _mm256_set1_epi32(2);
+    const __mmask8 inGrid = fits & _mm256_cmp_epi32_mask(i0, one, _MM_CMPINT_NLT) &
+                            _mm256_cmp_epi32_mask(j0, one, _MM_CMPINT_NLT) &
+                            _mm256_cmp_epi32_mask(_mm256_add_epi32(i0, two), _mm256_set1_epi32(nx), _MM_CMPINT_LT) &
+                            _mm256_cmp_epi32_mask(_mm256_add_epi32(j0, two), _mm256_set1_epi32(ny), _MM_CMPINT_LT);
+    const __m256i nxv = _mm256_set1_epi32(nx);
+    const __m256i first = _mm256_add_epi32(_mm256_mullo_epi32(_mm256_sub_epi32(j0, one), nxv), _mm256_sub_epi32(i0, one));
+    // openFloor(cx, cy): bit k % 64 of word k / 64, k = cy·nx + cx (in the grid where inGrid).
+    const __m256i k = _mm256_add_epi32(_mm256_mullo_epi32(cy, nxv), cx);
+    const __m512i words =
+        _mm512_mask_i32gather_epi64(_mm512_setzero_si512(), inGrid, _mm256_srli_epi32(k, 6), openBits, 8);
+    const __m512i bits = _mm512_srlv_epi64(words, _mm512_cvtepi32_epi64(_mm256_and_si256(k, _mm256_set1_epi32(63))));
+    const __mmask8 open = _mm512_mask_test_epi64_mask(inGrid, bits, _mm512_set1_epi64(1));
+    _mm512_store_pd(q.qx, qx);
+    _mm512_store_pd(q.qy, qy);
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(q.cx), cx);
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(q.cy), cy);
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(q.i0), i0);
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(q.j0), j0);
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(q.first), first);
+    q.inGrid = inGrid;
+    q.open = open;
+}
+
+/// shortWay() in eight lanes: block[l] is the address of lane l's block's first cell (null in
+/// the lanes not in `lanes`), `nx` the grid's row length.
+CH_NAV_AVX512 unsigned shortWay8(const float* const* blocks, unsigned lanesIn, std::size_t nx, double h,
+                                 const WalkableGrid::Probe8& q, Vec2* dir, double* dist) {
+    static_assert(sizeof(const float*) == sizeof(long long));
+    const __mmask8 lanes = static_cast<__mmask8>(lanesIn);
+    const __m512i block = _mm512_loadu_si512(blocks);
+    // T at (row r, column c) of the blocks, as doubles (0 in the lanes not sampled).
+    auto t = [&](int r, int c) {
+        const __m512i at = _mm512_add_epi64(block, _mm512_set1_epi64(static_cast<long long>((r * nx + c) * sizeof(float))));
+        return _mm512_cvtps_pd(_mm512_mask_i64gather_ps(_mm256_setzero_ps(), lanes, at, nullptr, 1));
+    };
+    const __m512d t01 = t(0, 1), t02 = t(0, 2);
+    const __m512d t10 = t(1, 0), t11 = t(1, 1), t12 = t(1, 2), t13 = t(1, 3);
+    const __m512d t20 = t(2, 0), t21 = t(2, 1), t22 = t(2, 2), t23 = t(2, 3);
+    const __m512d t31 = t(3, 1), t32 = t(3, 2);
+    const __m256i i0 = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(q.i0));
+    const __m256i j0 = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(q.j0));
+    const __m256i cx = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(q.cx));
+    const __m256i cy = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(q.cy));
+    // p's own cell: (i0 or i0 + 1, j0 or j0 + 1), that is t11, t12, t21 or t22.
+    const __mmask8 right = _mm256_cmp_epi32_mask(cx, i0, _MM_CMPINT_NE);
+    const __mmask8 up = _mm256_cmp_epi32_mask(cy, j0, _MM_CMPINT_NE);
+    const __m512d own = _mm512_mask_blend_pd(up, _mm512_mask_blend_pd(right, t11, t12), _mm512_mask_blend_pd(right, t21, t22));
+    const __m512d inf = _mm512_set1_pd(std::numeric_limits<double>::infinity());
+    __mmask8 ok = _mm512_mask_cmp_pd_mask(lanes, _mm512_abs_pd(own), inf, _CMP_LT_OQ);
+    const __m512d one = _mm512_set1_pd(1.0), half = _mm512_set1_pd(0.5);
+    const __m512d tx = _mm512_sub_pd(_mm512_sub_pd(_mm512_load_pd(q.qx), half), _mm512_cvtepi32_pd(i0));
+    const __m512d ty = _mm512_sub_pd(_mm512_sub_pd(_mm512_load_pd(q.qy), half), _mm512_cvtepi32_pd(j0));
+    const __m512d ux = _mm512_sub_pd(one, tx), uy = _mm512_sub_pd(one, ty);
+    const __m512d w00 = _mm512_mul_pd(ux, uy), w10 = _mm512_mul_pd(tx, uy), w01 = _mm512_mul_pd(ux, ty),
+                  w11 = _mm512_mul_pd(tx, ty);
+    // w00·a + w10·b + w01·c + w11·d, added left to right as the scalar expression is.
+    auto blend = [&](__m512d a, __m512d b, __m512d c, __m512d d) {
+        __m512d s = _mm512_add_pd(_mm512_mul_pd(w00, a), _mm512_mul_pd(w10, b));
+        s = _mm512_add_pd(s, _mm512_mul_pd(w01, c));
+        return _mm512_add_pd(s, _mm512_mul_pd(w11, d));
+    };
+    const __m512d d = blend(t11, t12, t21, t22);
+    ok = _mm512_mask_cmp_pd_mask(ok, d, _mm512_set1_pd(2.0 * h), _CMP_GE_OQ);
+    ok = _mm512_mask_cmp_pd_mask(ok, _mm512_abs_pd(d), inf, _CMP_LT_OQ);
+    if (ok == 0) return 0;
+    const __m512d sign = _mm512_set1_pd(-0.0);
+    const __m512d gx = _mm512_xor_pd(blend(_mm512_sub_pd(t12, t10), _mm512_sub_pd(t13, t11), _mm512_sub_pd(t22, t20),
+                                           _mm512_sub_pd(t23, t21)), sign);
+    const __m512d gy = _mm512_xor_pd(blend(_mm512_sub_pd(t21, t01), _mm512_sub_pd(t22, t02), _mm512_sub_pd(t31, t11),
+                                           _mm512_sub_pd(t32, t12)), sign);
+    // normalisedOrZero(−∇T): n = √(x² + y²), zero (the general way) where n ≤ 1e-12.
+    const __m512d n = _mm512_sqrt_pd(_mm512_add_pd(_mm512_mul_pd(gx, gx), _mm512_mul_pd(gy, gy)));
+    ok = _mm512_mask_cmp_pd_mask(ok, n, _mm512_set1_pd(1e-12), _CMP_GT_OQ);
+    const __m512d dx = _mm512_div_pd(gx, n), dy = _mm512_div_pd(gy, n);
+    double* out = dir[0].data();
+    _mm512_storeu_pd(out, _mm512_permutex2var_pd(dx, _mm512_setr_epi64(0, 8, 1, 9, 2, 10, 3, 11), dy));
+    _mm512_storeu_pd(out + 8, _mm512_permutex2var_pd(dx, _mm512_setr_epi64(4, 12, 5, 13, 6, 14, 7, 15), dy));
+    _mm512_storeu_pd(dist, d);
+    return ok;
+}
+#endif
+
+}  // namespace
+
+int navigationSamplePath() { return gSamplePath.load(); }
+
+bool setNavigationSamplePath(int path) {
+    if (path != 0 && !(path == 1 && cpu::hasAvx512())) return false;
+    gSamplePath.store(path);
+    return true;
+}
+
+void WalkableGrid::probe8(const Vec2* pos, int count, Probe8& q) const {
+#ifdef CH_NAV_X86
+    if (gSamplePath.load(std::memory_order_relaxed) == 1) {
+        probe8Avx512(pos, count, origin_, h_, nx_, ny_, openBits_.data(), q);
+        return;
+    }
+#endif
+    q.inGrid = q.open = 0;
+    for (int l = 0; l < count; ++l) {
+        const Probe p = probe(pos[l]);
+        q.qx[l] = p.qx, q.qy[l] = p.qy;
+        q.cx[l] = p.cx, q.cy[l] = p.cy, q.i0[l] = p.i0, q.j0[l] = p.j0;
+        q.first[l] = static_cast<std::int32_t>(p.first);
+        q.inGrid |= static_cast<unsigned>(p.inGrid) << l;
+        q.open |= static_cast<unsigned>(p.open) << l;
+    }
+}
+
+unsigned DistanceField::sample8(const DistanceField* const* fields, const WalkableGrid::Probe8& q, unsigned lanes,
+                                Vec2* dir, double* dist) {
+    lanes &= q.open;
+    // The lanes whose field can take the short way, and their blocks' first cells.
+    const float* block[8] = {};
+    const WalkableGrid* grid = nullptr;
+    for (unsigned m = lanes; m != 0; m &= m - 1) {
+        const int l = __builtin_ctz(m);
+        const DistanceField& f = *fields[l];
+        if (f.grid_ == nullptr || !f.seeded_) {
+            lanes &= ~(1u << l);
+            continue;
+        }
+        grid = f.grid_;
+        block[l] = &f.value_[static_cast<std::size_t>(q.first[l])];
+    }
+    if (lanes == 0) return 0;
+    const std::size_t nx = static_cast<std::size_t>(grid->nx());
+    const double h = grid->cellSize();
+#ifdef CH_NAV_X86
+    if (gSamplePath.load(std::memory_order_relaxed) == 1) {
+        return shortWay8(block, lanes, nx, h, q, dir, dist);
+    }
+#endif
+    unsigned done = 0;
+    for (unsigned m = lanes; m != 0; m &= m - 1) {
+        const int l = __builtin_ctz(m);
+        if (shortWay(block[l], nx, h, (q.qx[l] - 0.5) - q.i0[l], (q.qy[l] - 0.5) - q.j0[l],
+                     (q.cy[l] - q.j0[l] + 1) * 4 + (q.cx[l] - q.i0[l] + 1), dir[l], dist[l]))
+            done |= 1u << l;
+    }
+    return done;
 }
 
 }  // namespace ch

@@ -550,7 +550,9 @@ void Navigation::update(AgentStore& a, double t, std::uint64_t seed) {
     // every position of a run is probed on the grid (once for every field: they share it) and
     // the field cells it needs are requested, then the run is sampled. Agents sit in many
     // different rows of a field, and the memory latency of one agent's rows is then hidden behind
-    // the work of the others.
+    // the work of the others. Probes and samples go eight agents at a time (probe8, sample8: in
+    // AVX-512 lanes where the CPU runs it); the agents near walls, targets and the grid's edges,
+    // which sample8 leaves, are sampled one by one.
     constexpr std::size_t kRun = 16;
     const std::size_t runs = (n + kRun - 1) / kRun;
 #pragma omp parallel for schedule(static) if (parallelCheapLoop(n))
@@ -561,14 +563,36 @@ void Navigation::update(AgentStore& a, double t, std::uint64_t seed) {
                 if (a.target[i] >= 0) a.navDir[i] = directionTo(a.target[i], a.pos[i], a.navDistance[i]);
             continue;
         }
-        WalkableGrid::Probe probes[kRun];
-        for (std::size_t i = begin; i < end; ++i) {
-            if (a.target[i] < 0) continue;
-            probes[i - begin] = grid_->probe(a.pos[i]);
-            fields_[static_cast<std::size_t>(a.target[i])].prefetch(probes[i - begin]);
+        WalkableGrid::Probe8 probes[kRun / 8];
+        const DistanceField* fields[kRun / 8][8];
+        unsigned lanes[kRun / 8] = {};
+        for (std::size_t g = 0; g < kRun / 8 && begin + 8 * g < end; ++g) {
+            const std::size_t lo = begin + 8 * g, count = std::min<std::size_t>(8, end - lo);
+            grid_->probe8(&a.pos[lo], static_cast<int>(count), probes[g]);
+            for (std::size_t l = 0; l < count; ++l) {
+                const int target = a.target[lo + l];
+                if (target < 0) continue;
+                lanes[g] |= 1u << l;
+                fields[g][l] = &fields_[static_cast<std::size_t>(target)];
+                if ((probes[g].inGrid >> l) & 1u) fields[g][l]->prefetch(static_cast<std::size_t>(probes[g].first[l]));
+            }
         }
-        for (std::size_t i = begin; i < end; ++i)
-            if (a.target[i] >= 0) a.navDir[i] = directionTo(a.target[i], a.pos[i], probes[i - begin], a.navDistance[i]);
+        for (std::size_t g = 0; g < kRun / 8 && begin + 8 * g < end; ++g) {
+            const std::size_t lo = begin + 8 * g;
+            Vec2 dirs[8];
+            double dists[8];
+            const unsigned done = DistanceField::sample8(fields[g], probes[g], lanes[g], dirs, dists);
+            for (unsigned m = lanes[g]; m != 0; m &= m - 1) {
+                const int l = __builtin_ctz(m);
+                const std::size_t i = lo + static_cast<std::size_t>(l);
+                if ((done >> l) & 1u) {
+                    a.navDir[i] = dirs[l];
+                    a.navDistance[i] = dists[l];
+                } else {
+                    a.navDir[i] = directionTo(a.target[i], a.pos[i], grid_->probe(a.pos[i]), a.navDistance[i]);
+                }
+            }
+        }
     }
 
     // Per exit: the remaining distances of the people heading there, indexed for "how many are

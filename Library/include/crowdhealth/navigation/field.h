@@ -116,6 +116,20 @@ public:
     };
     Probe probe(const Vec2& p) const;
 
+    /// Eight positions probed at once (probe8), for DistanceField::sample8: each lane's Probe
+    /// numbers, one array per number, and the lanes' inGrid and open flags as bit masks (bit l:
+    /// lane l). `first` and the open test hold for the lanes in inGrid only.
+    struct Probe8 {
+        alignas(64) double qx[8], qy[8];
+        std::int32_t cx[8], cy[8], i0[8], j0[8];
+        std::int32_t first[8];
+        unsigned inGrid = 0, open = 0;
+    };
+    /// probe(pos[l]) for the lanes l < count (1 … 8) of a column of positions, the others left out
+    /// of both masks: in AVX-512 where the CPU runs it (navigationSamplePath), with probe()'s
+    /// operations (the same numbers, bit for bit), else lane by lane.
+    void probe8(const Vec2* pos, int count, Probe8& q) const;
+
 private:
     WalkableGridSettings settings_;
     Vec2 origin_{0, 0};
@@ -151,6 +165,17 @@ public:
     /// Asks the processor to fetch the cells sample(p) reads on open floor (no effect on results):
     /// a loop over agents calls it a few agents ahead, with q = grid().probe(p).
     void prefetch(const WalkableGrid::Probe& q) const;
+    /// The same for a block whose first cell is `first` (a lane of WalkableGrid::Probe8 in inGrid).
+    void prefetch(std::size_t first) const;
+    /// sample() for up to eight agents at once (Navigation's loop over agents, issue 20): lane l of
+    /// q (grid().probe8 of the agents' positions) is sampled on *fields[l] for the lanes in `lanes`
+    /// (fields on q's grid). The lanes on open floor whose sample takes the short way (p's own cell
+    /// reached, at least two cells from the target, a gradient not zero) are worked out eight at a
+    /// time, in AVX-512 where the CPU runs it, with sample()'s operations in the same order, so the
+    /// same bits; their direction and distance go to dir[l] and dist[l]. Returns the mask of the
+    /// lanes written; sample() gives the others (the rules near walls and targets).
+    static unsigned sample8(const DistanceField* const* fields, const WalkableGrid::Probe8& q, unsigned lanes,
+                            Vec2* dir, double* dist);
     /// T at a cell centre (+inf: blocked or unreachable).
     float value(int ix, int iy) const { return value_[static_cast<std::size_t>(grid_->index(ix, iy))]; }
     /// True when at least one cell was seeded (the target touches walkable floor).
@@ -158,6 +183,11 @@ public:
     const WalkableGrid& grid() const { return *grid_; }
 
 private:
+    /// sample()'s short way at a block on open floor (`block` its first cell; tx, ty p's place
+    /// between the four inner centres; own its own cell in the block, row-major 0 … 15): false
+    /// where it does not apply (p's cell unreached, within two cells of the target, no gradient).
+    static bool shortWay(const float* block, std::size_t nx, double h, double tx, double ty, int own, Vec2& dir,
+                         double& dist);
     /// Gradient of T at a reached cell centre (central differences, one-sided next to blocked or
     /// unreached cells); false when no neighbour along either axis is usable.
     bool cellGradient(int ix, int iy, Vec2& g) const;
@@ -176,5 +206,11 @@ private:
     std::vector<float> value_;
     bool seeded_ = false;
 };
+
+/// The build of WalkableGrid::probe8 and DistanceField::sample8 in use: 0 lane by lane, 1 AVX-512
+/// (the best this CPU runs unless set; the same bits). setNavigationSamplePath returns false, and
+/// changes nothing, for a build this CPU does not run (tests and crowdhealth-bench --isa).
+int navigationSamplePath();
+bool setNavigationSamplePath(int path);
 
 }  // namespace ch
