@@ -617,23 +617,41 @@ void Navigation::update(AgentStore& a, double t, std::uint64_t seed) {
         if (quickest_)
             for (std::size_t e = 0; e < queues_.size(); ++e) ranks_[e].assign(queues_[e]);
         choicePaths_.resize(choosers_.size() * choiceSlots_);
-        for (std::size_t begin = 0; begin < choosers_.size(); begin += kRun) {
-            const std::size_t end = std::min(choosers_.size(), begin + kRun);
-            WalkableGrid::Probe probes[kRun];
-            for (std::size_t m = begin; m < end; ++m) {
-                const std::size_t i = choosers_[m];
-                probes[m - begin] = grid_->probe(a.pos[i]);
-                for (const int e : setExits_[static_cast<std::size_t>(exitSetOf_[static_cast<std::size_t>(a.journey[i])])])
-                    if (e != a.target[i] && open_[static_cast<std::size_t>(e)]) fields_[static_cast<std::size_t>(e)].prefetch(probes[m - begin]);
+        std::fill(choicePaths_.begin(), choicePaths_.end(), std::numeric_limits<double>::quiet_NaN());  // not sampled: unknown
+        // Eight choosers at a time (probe8, sample8 as in 2): slot k of a chooser's row is its set's
+        // k-th exit, sampled when open and not its target already; those sample8 leaves, one by one.
+        for (std::size_t lo = 0; lo < choosers_.size(); lo += 8) {
+            const int count = static_cast<int>(std::min<std::size_t>(8, choosers_.size() - lo));
+            Vec2 pos[8];
+            const std::vector<int>* exits[8];
+            for (int l = 0; l < count; ++l) {
+                const std::size_t i = choosers_[lo + static_cast<std::size_t>(l)];
+                pos[l] = a.pos[i];
+                exits[l] = &setExits_[static_cast<std::size_t>(exitSetOf_[static_cast<std::size_t>(a.journey[i])])];
             }
-            for (std::size_t m = begin; m < end; ++m) {
-                const std::size_t i = choosers_[m];
-                const std::vector<int>& exits = setExits_[static_cast<std::size_t>(exitSetOf_[static_cast<std::size_t>(a.journey[i])])];
-                double* row = &choicePaths_[m * choiceSlots_];
-                for (std::size_t k = 0; k < exits.size(); ++k) {
-                    const int e = exits[k];
-                    row[k] = std::numeric_limits<double>::quiet_NaN();  // not sampled: read as unknown
-                    if (e != a.target[i] && open_[static_cast<std::size_t>(e)]) directionTo(e, a.pos[i], probes[m - begin], row[k]);
+            WalkableGrid::Probe8 q;
+            grid_->probe8(pos, count, q);
+            for (std::size_t k = 0; k < choiceSlots_; ++k) {
+                const DistanceField* fields[8];
+                unsigned lanes = 0;
+                for (int l = 0; l < count; ++l) {
+                    const std::size_t i = choosers_[lo + static_cast<std::size_t>(l)];
+                    if (k >= exits[l]->size()) continue;
+                    const int e = (*exits[l])[k];
+                    if (e == a.target[i] || !open_[static_cast<std::size_t>(e)]) continue;
+                    lanes |= 1u << l;
+                    fields[l] = &fields_[static_cast<std::size_t>(e)];
+                    if ((q.inGrid >> l) & 1u) fields[l]->prefetch(static_cast<std::size_t>(q.first[l]));
+                }
+                if (lanes == 0) continue;
+                Vec2 dirs[8];
+                double dists[8];
+                const unsigned done = DistanceField::sample8(fields, q, lanes, dirs, dists);
+                for (unsigned m = lanes; m != 0; m &= m - 1) {
+                    const int l = __builtin_ctz(m);
+                    double& path = choicePaths_[(lo + static_cast<std::size_t>(l)) * choiceSlots_ + k];
+                    if ((done >> l) & 1u) path = dists[l];
+                    else directionTo((*exits[l])[k], pos[l], grid_->probe(pos[l]), path);
                 }
             }
         }
