@@ -29,6 +29,7 @@
 #include <fstream>
 #include <iostream>
 #include <limits>
+#include <map>
 #include <memory>
 #include <sstream>
 #include <stdexcept>
@@ -451,6 +452,65 @@ bool invert(std::vector<std::vector<double>>& a) {
 
 // ---- the command ------------------------------------------------------------------------------
 
+// ---- resume ----------------------------------------------------------------------------------
+//
+// OUTDIR/.calibrate/arguments holds what defines the runs (as sweep's .sweep/arguments): the
+// template's and the data's paths and content hashes, the fits with their ranges, the seeds, the
+// search's settings. OUTDIR/.calibrate/runs.txt gets one line per run that finished with a value,
+// "JOB<TAB>ok VALUE", as the results arrive (a job is "condition seed value..." with every number
+// exact). The search is deterministic given its runs' results, so a second call with the same
+// arguments asks for the same jobs in the same order: those recorded are taken from the file, the
+// others run, and the outputs are those of a calibration made in one go. Runs that failed are not
+// recorded (they are run again: a failure here is the scenario's, and happens again).
+
+/// The text of OUTDIR/.calibrate/arguments.
+std::string calibrationArguments(const CalibrationSetup& s, const std::string& dataPath, std::size_t seeds,
+                                 std::uint64_t firstSeed, std::size_t maxEvaluations, double tolerance, bool relative) {
+    auto canonical = [](const std::string& path) {
+        std::error_code ec;
+        const fs::path c = fs::weakly_canonical(fs::absolute(path), ec);
+        return ec ? path : c.string();
+    };
+    std::string t = "crowdhealth calibrate 1\nscenario " + canonical(s.input) + "\nscenario_content " + fileHash(s.input) +
+                    "\ndata " + canonical(dataPath) + "\ndata_content " + fileHash(dataPath) + "\n";
+    for (const FitParameter& f : s.fits) t += "fit " + f.target + "=" + shortest(f.lo) + ":" + shortest(f.hi) + "\n";
+    t += "seeds " + std::to_string(seeds) + "\nseed " + std::to_string(firstSeed) + "\n";
+    t += "max_evaluations " + std::to_string(maxEvaluations) + "\ntolerance " + shortest(tolerance) + "\n";
+    t += std::string("residuals ") + (relative ? "relative" : "absolute") + "\n";
+    t += "measure_from " + exactNumber(s.measureFrom) + "\nend_time " +
+         (s.endTime ? exactNumber(*s.endTime) : std::string("scenario")) + "\n";
+    return t;
+}
+
+/// The recorded runs of runs.txt: job → "ok VALUE". A last line cut short (the program killed while
+/// writing it) is dropped, and the file cut back to its last whole line so that new lines start
+/// afresh; a line that does not read as a record is ignored (its run is made again).
+std::map<std::string, std::string> readRunRecords(const fs::path& file) {
+    std::map<std::string, std::string> records;
+    std::ifstream in(file, std::ios::binary);
+    if (!in) return records;
+    std::ostringstream all;
+    all << in.rdbuf();
+    in.close();
+    std::string text = all.str();
+    const std::size_t end = text.rfind('\n');
+    const std::size_t whole = end == std::string::npos ? 0 : end + 1;
+    if (whole < text.size()) {
+        text.resize(whole);
+        std::error_code ec;
+        fs::resize_file(file, whole, ec);
+    }
+    for (const std::string& line : splitOn(text, '\n')) {
+        const std::size_t tab = line.find('\t');
+        if (tab == std::string::npos) continue;
+        const std::string result = line.substr(tab + 1);
+        double v = 0;
+        if (result.rfind("ok ", 0) != 0 || !parseDouble(result.substr(3), v)) continue;
+        records[line.substr(0, tab)] = result;
+    }
+    return records;
+}
+
 void printCalibrateHelp(std::ostream& out, const po::options_description& visible) {
     out << "Usage: crowdhealth calibrate -i SCENARIO --fit TARGET=LO:HI [--fit ...] --data FILE\n"
            "                             [--seeds N] [-o OUTDIR] [--seed S] [--jobs N] [--quiet]\n\n"
@@ -469,10 +529,14 @@ void printCalibrateHelp(std::ostream& out, const po::options_description& visibl
            "agents.pref_speed); its value holds for the whole run.\n\n"
            "Writes OUTDIR/calibration.csv (every evaluation: its values and objective),\n"
            "OUTDIR/calibration-result.json (fitted values with standard errors, the model against the\n"
-           "data) and OUTDIR/calibration.png. Same arguments, same results, whatever --jobs.\n\n";
+           "data) and OUTDIR/calibration.png. Same arguments, same results, whatever --jobs.\n\n"
+           "Resume: every run that gives a value is recorded in OUTDIR/.calibrate/runs.txt as it\n"
+           "finishes; the same command again (after Ctrl-C, a kill, a crash or a job's time limit)\n"
+           "takes those from the record, runs the others, and writes the files a calibration made in\n"
+           "one go writes. Other arguments, data or scenario with the same OUTDIR are refused.\n\n";
     out << visible << "\n"
         << "Exit status: 0 fitted; 1 every evaluation failed or OUTDIR cannot be written; 2 bad\n"
-           "arguments, data or scenario; 130 interrupted.\n";
+           "arguments, data or scenario; 130 interrupted (the same command resumes).\n";
 }
 
 /// An ostream that discards everything (worker ranks validate quietly).
@@ -735,15 +799,42 @@ int calibrateCommand(int argc, char* argv[]) {
     }
     setup = std::make_shared<const CalibrationSetup>(s);
 
-    // ---- OUTDIR (the controller's alone) ----
+    // ---- OUTDIR (the controller's alone): new, or a calibration with the same arguments ----
+    const fs::path state = output / ".calibrate", runsFile = state / "runs.txt";
+    std::map<std::string, std::string> recorded;
     if (pool.controller()) {
+        const std::string arguments =
+            calibrationArguments(s, dataPath, seeds, firstSeed, maxEvaluations, tolerance, relative);
         std::error_code ec;
-        fs::create_directories(output, ec);
-        if (ec || !fs::is_directory(output)) {
+        if (fs::exists(state / "arguments", ec)) {
+            std::ifstream in(state / "arguments", std::ios::binary);
+            std::ostringstream was;
+            was << in.rdbuf();
+            if (was.str() != arguments) {
+                std::cerr << "crowdhealth: error: " << output.string()
+                          << " holds a calibration made with other arguments, data or scenario ("
+                          << firstDifference(was.str(), arguments)
+                          << "); it is not resumed: give another -o OUTDIR, or the same arguments as before\n";
+                return kExitInput;
+            }
+        }
+        fs::create_directories(state, ec);
+        if (ec || !fs::is_directory(state)) {
             std::cerr << "crowdhealth: error: cannot create the output folder " << output.string() << ": " << ec.message() << "\n";
             agreement.status = kExitRuntime;
             return kExitRuntime;
         }
+        try {
+            if (!fs::exists(state / "arguments")) ch::writeFileAtomic(state / "arguments", arguments);
+        } catch (const std::exception& e) {
+            std::cerr << "crowdhealth: error: cannot write to " << output.string() << ": " << e.what() << "\n";
+            agreement.status = kExitRuntime;
+            return kExitRuntime;
+        }
+        recorded = readRunRecords(runsFile);
+        if (!quiet && !recorded.empty())
+            std::cerr << "calibrate: resuming: " << plural(recorded.size(), "run") << " already made ("
+                      << runsFile.string() << ")\n";
     }
     agreement.agreed = true;
     if (const int status = pool.agree(kExitOk); status != kExitOk) {
@@ -792,12 +883,37 @@ int calibrateCommand(int argc, char* argv[]) {
                         for (const double v : x) j += " " + exactNumber(v);
                         jobs.push_back(std::move(j));
                     }
-            std::vector<std::string> results(jobs.size());
-            const bool complete = pool.run(
-                jobs, [&](std::size_t index, const std::string& r) { results[index] = r; },
-                [&](const JobPoolState& st) {
-                    if (drawProgress && terminal) std::cerr << "\r\033[K" << progressLine(st.done, jobs.size()) << std::flush;
-                });
+            // The runs recorded by an earlier call are taken from the record; the others run, and
+            // each that gives a value is appended to it as it arrives.
+            std::vector<std::string> results(jobs.size()), missing;
+            std::vector<std::size_t> missingAt;
+            for (std::size_t k = 0; k < jobs.size(); ++k) {
+                const auto it = recorded.find(jobs[k]);
+                if (it != recorded.end()) {
+                    results[k] = it->second;
+                } else {
+                    missing.push_back(jobs[k]);
+                    missingAt.push_back(k);
+                }
+            }
+            const std::size_t already = jobs.size() - missing.size();
+            bool complete = true;
+            if (!missing.empty()) {
+                std::ofstream log(runsFile, std::ios::binary | std::ios::app);
+                complete = pool.run(
+                    missing,
+                    [&](std::size_t index, const std::string& r) {
+                        results[missingAt[index]] = r;
+                        if (r.rfind("ok ", 0) == 0 && log) {
+                            log << missing[index] << '\t' << r << '\n' << std::flush;
+                            recorded[missing[index]] = r;
+                        }
+                    },
+                    [&](const JobPoolState& st) {
+                        if (drawProgress && terminal)
+                            std::cerr << "\r\033[K" << progressLine(already + st.done, jobs.size()) << std::flush;
+                    });
+            }
             if (!complete || interruptRequested()) return std::nullopt;
             std::vector<double> values;
             for (std::size_t q = 0; q < points.size(); ++q) {
@@ -849,7 +965,8 @@ int calibrateCommand(int argc, char* argv[]) {
         if (drawProgress && terminal) std::cerr << "\n";
         if (found.interrupted || interruptRequested()) {
             std::cerr << "crowdhealth: interrupted after " << plural(evaluations.size(), "evaluation")
-                      << "; nothing was written (a calibration does not resume)\n";
+                      << "; the finished runs are kept in " << state.string()
+                      << ": run the same command again to resume\n";
             return kExitInterrupted;
         }
         for (const Evaluation& e : evaluations)
@@ -883,7 +1000,8 @@ int calibrateCommand(int argc, char* argv[]) {
             const std::optional<std::vector<double>> v = evaluateBatch(points, "jacobian");
             if (drawProgress && terminal) std::cerr << "\n";
             if (!v) {
-                std::cerr << "crowdhealth: interrupted; nothing was written (a calibration does not resume)\n";
+                std::cerr << "crowdhealth: interrupted; the finished runs are kept in " << state.string()
+                          << ": run the same command again to resume\n";
                 return kExitInterrupted;
             }
             const std::size_t n = data->rows.size();

@@ -77,19 +77,6 @@ std::string runName(std::size_t id, std::size_t total) {
     return "run_" + std::string(digits > number.size() ? digits - number.size() : 0, '0') + number;
 }
 
-/// FNV-1a of a file's bytes (resume refuses a scenario that changed since the first call).
-std::string fileHash(const fs::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    std::uint64_t h = 1469598103934665603ull;
-    char c;
-    while (in.get(c)) {
-        h ^= static_cast<unsigned char>(c);
-        h *= 1099511628211ull;
-    }
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h));
-    return buf;
-}
 
 }  // namespace
 
@@ -617,7 +604,22 @@ std::string argumentsText(const SweepSettings& s, std::uint64_t firstSeed) {
     return t;
 }
 
-/// The first line that differs, for the refusal message.
+
+}  // namespace
+
+std::string fileHash(const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    std::uint64_t h = 1469598103934665603ull;
+    char c;
+    while (in.get(c)) {
+        h ^= static_cast<unsigned char>(c);
+        h *= 1099511628211ull;
+    }
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h));
+    return buf;
+}
+
 std::string firstDifference(const std::string& was, const std::string& now) {
     const auto a = splitOn(was, '\n'), b = splitOn(now, '\n');
     for (std::size_t k = 0; k < std::max(a.size(), b.size()); ++k) {
@@ -626,8 +628,6 @@ std::string firstDifference(const std::string& was, const std::string& now) {
     }
     return "";
 }
-
-}  // namespace
 
 std::optional<std::string> parseSweepTarget(const std::string& target, ch::RampSpec& ramp) {
     return parseTarget(target, ramp);

@@ -15,6 +15,7 @@
 #include <crowdhealth/core/scenario.h>
 
 #include <cstdint>
+#include <filesystem>
 #include <optional>
 #include <string>
 #include <vector>
@@ -72,6 +73,13 @@ std::string sweepCsv(const std::vector<SweepAxis>& axes, const std::vector<Sweep
                      const std::vector<std::optional<SweepResult>>& results);
 std::string sweepSummaryCsv(const std::vector<SweepAxis>& axes, const std::vector<SweepRun>& runs,
                             const std::vector<std::optional<SweepResult>>& results);
+
+/// FNV-1a of a file's bytes, as 16 hex digits (resume refuses a scenario or data file that
+/// changed since the first call: sweep's and calibrate's `arguments` files).
+std::string fileHash(const std::filesystem::path& p);
+
+/// The first line where two texts differ, as "there: 'A', now: 'B'" (resume's refusal message).
+std::string firstDifference(const std::string& was, const std::string& now);
 
 /// `crowdhealth sweep …` (argv[0] is "sweep"). Exit statuses as the program's (exit_codes.h).
 int sweepCommand(int argc, char* argv[]);

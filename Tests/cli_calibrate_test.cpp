@@ -11,7 +11,11 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
+#include <csignal>
+#include <fstream>
 #include <map>
+#include <set>
 
 using namespace clitest;
 
@@ -129,6 +133,80 @@ BOOST_AUTO_TEST_CASE(same_result_with_one_job_and_with_two) {
     BOOST_TEST(readFile(d / "out" / "calibration-result.json") == readFile(fitDir() / "calibration-result.json"));
 }
 
+BOOST_AUTO_TEST_CASE(killed_and_interrupted_calibrations_resume_to_the_same_files) {
+    // Each run that gives a value is recorded in OUTDIR/.calibrate/runs.txt as it arrives; the same
+    // command again takes those from the record and runs the others, and must write what a
+    // calibration made in one go writes (fitDir()), having made each run once.
+    const fs::path d = freshDir(caseName());
+    const fs::path out = d / "out", runs = out / ".calibrate" / "runs.txt";
+    const std::vector<std::string> args = calibrateArgs(out, {"--jobs", "1"});
+    auto recorded = [&] { return fs::exists(runs) ? lines(readFile(runs)).size() : 0u; };
+    {  // killed (SIGKILL) after a few runs
+        Background b(d, args);
+        BOOST_REQUIRE(waitFor([&] { return recorded() >= 6; }, 120));
+        b.signal(SIGKILL);
+        BOOST_TEST(b.wait() == 1000 + SIGKILL);
+    }
+    BOOST_TEST(!fs::exists(out / "calibration.csv"));
+    // A record cut short, as a kill while writing leaves it: dropped, and the file cut back.
+    {
+        std::ofstream cut(runs, std::ios::binary | std::ios::app);
+        cut << "1 4 1.0";
+    }
+    const std::size_t afterKill = recorded();
+    {  // resumed, then interrupted (Ctrl-C)
+        Background b(d, args);
+        BOOST_REQUIRE(waitFor([&] { return recorded() >= afterKill + 4 || !b.running(); }, 120));
+        b.signal(SIGINT);
+        const int status = b.wait();
+        if (status == 130) {
+            BOOST_TEST(b.err().find("run the same command again to resume") != std::string::npos, b.err());
+            BOOST_TEST(!fs::exists(out / "calibration.csv"));
+        } else {
+            BOOST_TEST(status == 0);  // it finished before the signal arrived
+        }
+    }
+    std::vector<std::string> loud = args;
+    loud.erase(std::find(loud.begin(), loud.end(), "--quiet"));
+    const Result resumed = run(d, loud);
+    BOOST_REQUIRE_MESSAGE(resumed.status == 0, resumed.err);
+    BOOST_TEST(resumed.err.find("calibrate: resuming: ") != std::string::npos, resumed.err);
+    BOOST_TEST(readFile(out / "calibration.csv") == readFile(fitDir() / "calibration.csv"));
+    BOOST_TEST(readFile(out / "calibration-result.json") == readFile(fitDir() / "calibration-result.json"));
+    // Every run (2 conditions x 2 seeds) of every point evaluated (the search comes back to some:
+    // their runs are made once) recorded once, each a whole record; every evaluation ran here.
+    std::set<std::string> points;
+    for (const std::string& row : lines(readFile(out / "calibration.csv"))) {
+        const auto c = split(row, ',');
+        BOOST_REQUIRE_EQUAL(c.size(), 5u);
+        if (c[0] != "evaluation") points.insert(c[2]);
+        if (c[0] != "evaluation") BOOST_TEST(c[4] == "ok", row);
+    }
+    const auto records = lines(readFile(runs));
+    BOOST_TEST(records.size() == 4 * points.size());
+    std::set<std::string> jobs;
+    for (const std::string& r : records) {
+        const auto fields = split(r, '\t');
+        BOOST_REQUIRE_EQUAL(fields.size(), 2u);
+        BOOST_TEST(split(fields[0], ' ').size() == 3u, r);  // condition, seed, pref_speed
+        BOOST_TEST(fields[1].rfind("ok ", 0) == 0, r);
+        jobs.insert(fields[0]);
+    }
+    BOOST_TEST(jobs.size() == records.size());
+    // Called again: nothing to run, the same files.
+    const Result again = run(d, args);
+    BOOST_REQUIRE_MESSAGE(again.status == 0, again.err);
+    BOOST_TEST(lines(readFile(runs)).size() == records.size());
+    BOOST_TEST(readFile(out / "calibration-result.json") == readFile(fitDir() / "calibration-result.json"));
+    // Other arguments on the same OUTDIR are refused, and change nothing.
+    std::vector<std::string> three = args;
+    *(std::find(three.begin(), three.end(), "--seeds") + 1) = "3";
+    const Result other = run(d, three);
+    BOOST_TEST(other.status == 2);
+    BOOST_TEST(other.err.find("there: 'seeds 2', now: 'seeds 3'") != std::string::npos, other.err);
+    BOOST_TEST(lines(readFile(runs)).size() == records.size());
+}
+
 BOOST_AUTO_TEST_CASE(a_bound_is_reached_and_respected) {
     // The data want 1.2; a box that stops at 1.0 gives 1.0 (at_bound), never a value above it.
     const fs::path d = freshDir(caseName());
@@ -194,6 +272,7 @@ BOOST_AUTO_TEST_CASE(help_lists_the_command) {
     const Result own = run(d, {"calibrate", "--help"});
     BOOST_TEST(own.status == 0);
     BOOST_TEST(own.out.find("--data") != std::string::npos);
+    BOOST_TEST(own.out.find("Resume") != std::string::npos);
 }
 
 BOOST_AUTO_TEST_CASE(the_shipped_templates_run_with_their_data) {
