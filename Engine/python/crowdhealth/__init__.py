@@ -226,6 +226,24 @@ class Scenario:
         self._agents.append(("<AgentGrid%s>%s</AgentGrid>" % (_attrs(attrs), inner), _caller()))
         return self
 
+    def spawn_rectangle(self, xmin, xmax, ymin, ymax, columns, rows, goal=None, policy=0, start_time=None,
+                        end_time=None, interval=None, remove_at_goal=None, position_noise=None, radius=None,
+                        radius_noise=None, pref_speed=None, max_speed=None, max_acceleration=None,
+                        goal_radius=None):
+        """<SpawnRectangle> (SPH-era UMANS): columns x rows agents, one at the centre of each cell of
+        the rectangle, at start_time s and then every `interval` s until end_time s (interval 0 or
+        None: once); position_noise and radius_noise m of uniform noise drawn from the run's seed,
+        radius the agents' radius (XML: AgentRadius)."""
+        attrs = dict(xmin=xmin, xmax=xmax, ymin=ymin, ymax=ymax, NrAgentsHorizontal=columns, NrAgentsVertical=rows,
+                     StartTime=start_time, EndTime=end_time, Interval=interval, RemoveAtGoal=remove_at_goal,
+                     PositionNoise=position_noise, AgentRadius=radius, AgentRadiusNoise=radius_noise,
+                     pref_speed=pref_speed, max_speed=max_speed, max_acceleration=max_acceleration,
+                     goal_radius=goal_radius)
+        inner = "<Policy%s/>" % _attrs(dict(id=policy))
+        inner += _goal(goal)
+        self._agents.append(("<SpawnRectangle%s>%s</SpawnRectangle>" % (_attrs(attrs), inner), _caller()))
+        return self
+
     def source(self, policy=0, id=None, xmin=None, xmax=None, ymin=None, ymax=None, points=None, goal=None,
                rates=None, draws=None, **attributes):
         """<Source>: agents appearing over time in a rectangle (xmin, xmax, ymin, ymax) or polygon

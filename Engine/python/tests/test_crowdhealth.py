@@ -393,6 +393,43 @@ def test_venue_in_code_equals_the_xml_file(tmp_path):
     assert (prog / "evacuations.csv").read_bytes() == (tmp_path / "b" / "evacuations.csv").read_bytes()
 
 
+SPAWN_XML = """<?xml version="1.0"?>
+<Simulation delta_time="0.05" end_time="11" seed="9">
+\t<World type="Planar" xmin="-2" xmax="14" ymin="-2" ymax="8"/>
+\t<Policies>
+\t\t<Policy id="0" OptimizationMethod="gradient" RelaxationTime="0.5">
+\t\t\t<costfunction name="GoalReachingForce"/>
+\t\t\t<costfunction name="SocialForcesAvoidance" range="3"/>
+\t\t</Policy>
+\t</Policies>
+\t<Agents>
+\t\t<SpawnRectangle xmin="0" xmax="2" ymin="0" ymax="6" NrAgentsHorizontal="2" NrAgentsVertical="5" StartTime="0.5"
+\t\t\tEndTime="2.5" Interval="1" RemoveAtGoal="true" PositionNoise="0.05" AgentRadius="0.25" AgentRadiusNoise="0.03"
+\t\t\tpref_speed="1.2" max_speed="1.6" max_acceleration="4" goal_radius="0.5"><Policy id="0"/><goal x="12" y="3"/></SpawnRectangle>
+\t</Agents>
+</Simulation>
+"""
+
+
+def test_spawn_rectangle_in_code_equals_the_xml_file(tmp_path):
+    path = tmp_path / "spawn.xml"
+    path.write_text(SPAWN_XML)
+    s = crowdhealth.Scenario(delta_time=0.05, end_time=11, seed=9)
+    s.world("planar", xmin=-2, xmax=14, ymin=-2, ymax=8)
+    s.policy(0, ["GoalReachingForce", ("SocialForcesAvoidance", {"range": 3})], method="gradient",
+             relaxation_time=0.5)
+    s.spawn_rectangle(0, 2, 0, 6, columns=2, rows=5, goal=(12, 3), start_time=0.5, end_time=2.5, interval=1,
+                      remove_at_goal=True, position_noise=0.05, radius=0.25, radius_noise=0.03, pref_speed=1.2,
+                      max_speed=1.6, max_acceleration=4, goal_radius=0.5)
+    a, b = crowdhealth.Simulation(path), crowdhealth.Simulation(s)
+    # Three waves of ten (0.5, 1.5 and 2.5 s), drawn alike in both.
+    a.run(until=1.0), b.run(until=1.0)
+    assert a.agent_count == b.agent_count == 10
+    run_alike(tmp_path, a, b, ["metrics.csv", "health.csv", "evacuations.csv"])
+    assert a.agent_count + a.evacuated == b.agent_count + b.evacuated == 30
+    assert 0 < b.evacuated < 30  # the first waves reach the goal and leave
+
+
 def test_venue_errors_name_the_builder_call():
     s = venue_in_code().exit_set("west", ["south", "nowhere"])
     with pytest.raises(crowdhealth.ScenarioError) as e:
