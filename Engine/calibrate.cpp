@@ -450,8 +450,6 @@ bool invert(std::vector<std::vector<double>>& a) {
     return true;
 }
 
-// ---- the command ------------------------------------------------------------------------------
-
 // ---- resume ----------------------------------------------------------------------------------
 //
 // OUTDIR/.calibrate/arguments holds what defines the runs (as sweep's .sweep/arguments): the
@@ -510,6 +508,8 @@ std::map<std::string, std::string> readRunRecords(const fs::path& file) {
     }
     return records;
 }
+
+// ---- the command ------------------------------------------------------------------------------
 
 void printCalibrateHelp(std::ostream& out, const po::options_description& visible) {
     out << "Usage: crowdhealth calibrate -i SCENARIO --fit TARGET=LO:HI [--fit ...] --data FILE\n"
