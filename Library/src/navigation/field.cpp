@@ -562,8 +562,8 @@ Vec2 DistanceField::sample(const Vec2& p, double& dist) const {
     return direction(p);
 }
 
-bool DistanceField::shortWay(const float* block, std::size_t nx, double h, double tx, double ty, int own, Vec2& dir,
-                             double& dist) {
+bool DistanceField::shortWay(const float* block, std::size_t nx, double h, double qx, double qy, int cx, int cy,
+                             int i0, int j0, Vec2& dir, double& dist) {
     // Open floor: the 4 × 4 block round p is walkable and in p's region (so reached when p's cell
     // is), and the general rules reduce to bilinear T and bilinearly blended central differences.
     double t[4][4];  // t[row][column] for cells (i0 − 1 … i0 + 2, j0 − 1 … j0 + 2)
@@ -571,7 +571,8 @@ bool DistanceField::shortWay(const float* block, std::size_t nx, double h, doubl
     for (int r = 0; r < 4; ++r, row += nx)
         for (int c = 0; c < 4; ++c) t[r][c] = row[c];
     // p's own cell is (i0 or i0 + 1, j0 or j0 + 1): unreached means no path from here.
-    if (!std::isfinite(t[own / 4][own % 4])) return false;
+    if (!std::isfinite(t[cy - j0 + 1][cx - i0 + 1])) return false;
+    const double tx = (qx - 0.5) - i0, ty = (qy - 0.5) - j0;
     const double w00 = (1 - tx) * (1 - ty), w10 = tx * (1 - ty), w01 = (1 - tx) * ty, w11 = tx * ty;
     dist = w00 * t[1][1] + w10 * t[1][2] + w01 * t[2][1] + w11 * t[2][2];
     if (!(dist >= 2.0 * h)) return false;
@@ -587,8 +588,8 @@ Vec2 DistanceField::sample(const WalkableGrid::Probe& q, const Vec2& p, double& 
     // A block leaving the grid, or near a wall, takes the general way.
     if (grid_ != nullptr && seeded_ && q.open) {
         Vec2 dir;
-        if (shortWay(&value_[q.first], static_cast<std::size_t>(grid_->nx()), grid_->cellSize(), (q.qx - 0.5) - q.i0,
-                     (q.qy - 0.5) - q.j0, (q.cy - q.j0 + 1) * 4 + (q.cx - q.i0 + 1), dir, dist))
+        if (shortWay(&value_[q.first], static_cast<std::size_t>(grid_->nx()), grid_->cellSize(), q.qx, q.qy, q.cx, q.cy,
+                     q.i0, q.j0, dir, dist))
             return dir;
     }
     dist = distance(p);
@@ -833,8 +834,7 @@ unsigned DistanceField::sample8(const DistanceField* const* fields, const Walkab
     unsigned done = 0;
     for (unsigned m = lanes; m != 0; m &= m - 1) {
         const int l = __builtin_ctz(m);
-        if (shortWay(block[l], nx, h, (q.qx[l] - 0.5) - q.i0[l], (q.qy[l] - 0.5) - q.j0[l],
-                     (q.cy[l] - q.j0[l] + 1) * 4 + (q.cx[l] - q.i0[l] + 1), dir[l], dist[l]))
+        if (shortWay(block[l], nx, h, q.qx[l], q.qy[l], q.cx[l], q.cy[l], q.i0[l], q.j0[l], dir[l], dist[l]))
             done |= 1u << l;
     }
     return done;

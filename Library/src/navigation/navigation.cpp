@@ -209,6 +209,27 @@ Vec2 Navigation::straightTo(int target, const Vec2& p, double& distance) const {
     return normalisedOrZero(c - p);
 }
 
+void Navigation::prefetchLanes(const WalkableGrid::Probe8& q, const int* target, unsigned lanes) const {
+    for (unsigned m = lanes & q.inGrid; m != 0; m &= m - 1) {
+        const int l = __builtin_ctz(m);
+        fields_[static_cast<std::size_t>(target[l])].prefetch(static_cast<std::size_t>(q.first[l]));
+    }
+}
+
+void Navigation::directionsTo(const WalkableGrid::Probe8& q, const Vec2* pos, const int* target, unsigned lanes,
+                              Vec2* dir, double* dist) const {
+    const DistanceField* fields[8];
+    for (unsigned m = lanes; m != 0; m &= m - 1) {
+        const int l = __builtin_ctz(m);
+        fields[l] = &fields_[static_cast<std::size_t>(target[l])];
+    }
+    const unsigned done = DistanceField::sample8(fields, q, lanes, dir, dist);
+    for (unsigned m = lanes & ~done; m != 0; m &= m - 1) {
+        const int l = __builtin_ctz(m);
+        dir[l] = directionTo(target[l], pos[l], grid_->probe(pos[l]), dist[l]);
+    }
+}
+
 double Navigation::width(int target) const { return targets_[static_cast<std::size_t>(target)].width; }
 
 double Navigation::distanceTo(int target, const Vec2& p) const {
@@ -564,33 +585,23 @@ void Navigation::update(AgentStore& a, double t, std::uint64_t seed) {
             continue;
         }
         WalkableGrid::Probe8 probes[kRun / 8];
-        const DistanceField* fields[kRun / 8][8];
         unsigned lanes[kRun / 8] = {};
         for (std::size_t g = 0; g < kRun / 8 && begin + 8 * g < end; ++g) {
             const std::size_t lo = begin + 8 * g, count = std::min<std::size_t>(8, end - lo);
             grid_->probe8(&a.pos[lo], static_cast<int>(count), probes[g]);
-            for (std::size_t l = 0; l < count; ++l) {
-                const int target = a.target[lo + l];
-                if (target < 0) continue;
-                lanes[g] |= 1u << l;
-                fields[g][l] = &fields_[static_cast<std::size_t>(target)];
-                if ((probes[g].inGrid >> l) & 1u) fields[g][l]->prefetch(static_cast<std::size_t>(probes[g].first[l]));
-            }
+            for (std::size_t l = 0; l < count; ++l)
+                if (a.target[lo + l] >= 0) lanes[g] |= 1u << l;
+            prefetchLanes(probes[g], &a.target[lo], lanes[g]);
         }
         for (std::size_t g = 0; g < kRun / 8 && begin + 8 * g < end; ++g) {
             const std::size_t lo = begin + 8 * g;
             Vec2 dirs[8];
             double dists[8];
-            const unsigned done = DistanceField::sample8(fields[g], probes[g], lanes[g], dirs, dists);
+            directionsTo(probes[g], &a.pos[lo], &a.target[lo], lanes[g], dirs, dists);
             for (unsigned m = lanes[g]; m != 0; m &= m - 1) {
                 const int l = __builtin_ctz(m);
-                const std::size_t i = lo + static_cast<std::size_t>(l);
-                if ((done >> l) & 1u) {
-                    a.navDir[i] = dirs[l];
-                    a.navDistance[i] = dists[l];
-                } else {
-                    a.navDir[i] = directionTo(a.target[i], a.pos[i], grid_->probe(a.pos[i]), a.navDistance[i]);
-                }
+                a.navDir[lo + static_cast<std::size_t>(l)] = dirs[l];
+                a.navDistance[lo + static_cast<std::size_t>(l)] = dists[l];
             }
         }
     }
@@ -618,8 +629,8 @@ void Navigation::update(AgentStore& a, double t, std::uint64_t seed) {
             for (std::size_t e = 0; e < queues_.size(); ++e) ranks_[e].assign(queues_[e]);
         choicePaths_.resize(choosers_.size() * choiceSlots_);
         std::fill(choicePaths_.begin(), choicePaths_.end(), std::numeric_limits<double>::quiet_NaN());  // not sampled: unknown
-        // Eight choosers at a time (probe8, sample8 as in 2): slot k of a chooser's row is its set's
-        // k-th exit, sampled when open and not its target already; those sample8 leaves, one by one.
+        // Eight choosers at a time (probe8 and directionsTo, as in 2): slot k of a chooser's row is
+        // its set's k-th exit, sampled when open and not its target already.
         for (std::size_t lo = 0; lo < choosers_.size(); lo += 8) {
             const int count = static_cast<int>(std::min<std::size_t>(8, choosers_.size() - lo));
             Vec2 pos[8];
@@ -632,26 +643,22 @@ void Navigation::update(AgentStore& a, double t, std::uint64_t seed) {
             WalkableGrid::Probe8 q;
             grid_->probe8(pos, count, q);
             for (std::size_t k = 0; k < choiceSlots_; ++k) {
-                const DistanceField* fields[8];
+                int exit[8];
                 unsigned lanes = 0;
                 for (int l = 0; l < count; ++l) {
-                    const std::size_t i = choosers_[lo + static_cast<std::size_t>(l)];
                     if (k >= exits[l]->size()) continue;
-                    const int e = (*exits[l])[k];
-                    if (e == a.target[i] || !open_[static_cast<std::size_t>(e)]) continue;
-                    lanes |= 1u << l;
-                    fields[l] = &fields_[static_cast<std::size_t>(e)];
-                    if ((q.inGrid >> l) & 1u) fields[l]->prefetch(static_cast<std::size_t>(q.first[l]));
+                    exit[l] = (*exits[l])[k];
+                    if (exit[l] != a.target[choosers_[lo + static_cast<std::size_t>(l)]] && open_[static_cast<std::size_t>(exit[l])])
+                        lanes |= 1u << l;
                 }
                 if (lanes == 0) continue;
+                prefetchLanes(q, exit, lanes);
                 Vec2 dirs[8];
                 double dists[8];
-                const unsigned done = DistanceField::sample8(fields, q, lanes, dirs, dists);
+                directionsTo(q, pos, exit, lanes, dirs, dists);
                 for (unsigned m = lanes; m != 0; m &= m - 1) {
                     const int l = __builtin_ctz(m);
-                    double& path = choicePaths_[(lo + static_cast<std::size_t>(l)) * choiceSlots_ + k];
-                    if ((done >> l) & 1u) path = dists[l];
-                    else directionTo((*exits[l])[k], pos[l], grid_->probe(pos[l]), path);
+                    choicePaths_[(lo + static_cast<std::size_t>(l)) * choiceSlots_ + k] = dists[l];
                 }
             }
         }

@@ -183,11 +183,11 @@ public:
     const WalkableGrid& grid() const { return *grid_; }
 
 private:
-    /// sample()'s short way at a block on open floor (`block` its first cell; tx, ty p's place
-    /// between the four inner centres; own its own cell in the block, row-major 0 … 15): false
-    /// where it does not apply (p's cell unreached, within two cells of the target, no gradient).
-    static bool shortWay(const float* block, std::size_t nx, double h, double tx, double ty, int own, Vec2& dir,
-                         double& dist);
+    /// sample()'s short way at a block on open floor (`block` its first cell; the other numbers
+    /// those of p's WalkableGrid::Probe): false where it does not apply (p's cell unreached,
+    /// within two cells of the target, no gradient).
+    static bool shortWay(const float* block, std::size_t nx, double h, double qx, double qy, int cx, int cy, int i0,
+                         int j0, Vec2& dir, double& dist);
     /// Gradient of T at a reached cell centre (central differences, one-sided next to blocked or
     /// unreached cells); false when no neighbour along either axis is usable.
     bool cellGradient(int ix, int iy, Vec2& g) const;

@@ -180,6 +180,14 @@ private:
     Vec2 directionTo(int target, const Vec2& p, const WalkableGrid::Probe& q, double& distance) const;
     /// Straight at the nearest point of the target (no field, or p off the grid).
     Vec2 straightTo(int target, const Vec2& p, double& distance) const;
+    /// Asks for the field cells that directionsTo will read: lane l of q (positions probed with
+    /// probe8) on target[l]'s field, for the lanes in `lanes`.
+    void prefetchLanes(const WalkableGrid::Probe8& q, const int* target, unsigned lanes) const;
+    /// directionTo(target[l], pos[l], …) into dir[l] and dist[l] for the lanes in `lanes` (q =
+    /// grid_->probe8(pos)): eight at a time by DistanceField::sample8, the lanes it leaves one by
+    /// one; the same results. Only with fields.
+    void directionsTo(const WalkableGrid::Probe8& q, const Vec2* pos, const int* target, unsigned lanes, Vec2* dir,
+                      double* dist) const;
 };
 
 }  // namespace ch
