@@ -45,6 +45,11 @@ def _goal(goal):
     return "" if goal is None else "<goal%s/>" % _attrs(dict(x=float(goal[0]), y=float(goal[1])))
 
 
+def _policy(policy):
+    """The <Policy id/> child of an agent or a group of agents."""
+    return "<Policy%s/>" % _attrs(dict(id=policy))
+
+
 def _place(tag, id, x, y, radius, xmin, xmax, ymin, ymax, points, extra):
     """A <Target> or <Exit> element: a point, a rectangle or a polygon (points)."""
     attrs = _attrs(dict(id=id, x=x, y=y, radius=radius, xmin=xmin, xmax=xmax, ymin=ymin, ymax=ymax, **extra))
@@ -201,7 +206,7 @@ class Scenario:
                      group=group, journey=journey, premovement=premovement)
         inner = "<pos%s/>" % _attrs(dict(x=float(x), y=float(y)))
         inner += _goal(goal)
-        inner += "<Policy%s/>" % _attrs(dict(id=policy))
+        inner += _policy(policy)
         self._agents.append(("<Agent%s>%s</Agent>" % (_attrs(attrs), inner), _caller()))
         return self
 
@@ -221,8 +226,7 @@ class Scenario:
                      pref_speed=pref_speed, max_speed=max_speed, max_acceleration=max_acceleration,
                      remove_at_goal=remove_at_goal, goal_radius=goal_radius, start_time=start_time,
                      premovement=premovement, journey=journey, group_size=group_size)
-        inner = "<Policy%s/>" % _attrs(dict(id=policy))
-        inner += _goal(goal)
+        inner = _policy(policy) + _goal(goal)
         self._agents.append(("<AgentGrid%s>%s</AgentGrid>" % (_attrs(attrs), inner), _caller()))
         return self
 
@@ -239,8 +243,7 @@ class Scenario:
                      PositionNoise=position_noise, AgentRadius=radius, AgentRadiusNoise=radius_noise,
                      pref_speed=pref_speed, max_speed=max_speed, max_acceleration=max_acceleration,
                      goal_radius=goal_radius)
-        inner = "<Policy%s/>" % _attrs(dict(id=policy))
-        inner += _goal(goal)
+        inner = _policy(policy) + _goal(goal)
         self._agents.append(("<SpawnRectangle%s>%s</SpawnRectangle>" % (_attrs(attrs), inner), _caller()))
         return self
 
@@ -253,8 +256,7 @@ class Scenario:
         end, count, journey, rad, pref_speed, max_speed, premovement, max_acceleration,
         remove_at_goal, group_size_min, group_size_max, group_share."""
         attrs = dict(id=id, xmin=xmin, xmax=xmax, ymin=ymin, ymax=ymax, **attributes)
-        inner = "<Policy%s/>" % _attrs(dict(id=policy))
-        inner += _goal(goal)
+        inner = _policy(policy) + _goal(goal)
         if points is not None:
             inner += _points(points)
         for time, value in rates or ():
