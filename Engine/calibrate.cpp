@@ -453,7 +453,8 @@ bool invert(std::vector<std::vector<double>>& a) {
 // ---- resume ----------------------------------------------------------------------------------
 //
 // OUTDIR/.calibrate/arguments holds what defines the runs (as sweep's .sweep/arguments): the
-// template's and the data's paths and content hashes, the fits with their ranges, the seeds, the
+// template's and the data's paths and content hashes, the files the template reads and the
+// plugins (readFilesText), the fits with their ranges, the seeds, the
 // search's settings. OUTDIR/.calibrate/runs.txt gets one line per run that finished with a value,
 // "JOB<TAB>ok VALUE", as the results arrive (a job is "condition seed value..." with every number
 // exact). The search is deterministic given its runs' results, so a second call with the same
@@ -462,15 +463,15 @@ bool invert(std::vector<std::vector<double>>& a) {
 // recorded (they are run again: a failure here is the scenario's, and happens again).
 
 /// The text of OUTDIR/.calibrate/arguments.
-std::string calibrationArguments(const CalibrationSetup& s, const std::string& dataPath, std::size_t seeds,
+std::string calibrationArguments(const CalibrationSetup& s, const std::vector<std::string>& included, const std::string& dataPath, std::size_t seeds,
                                  std::uint64_t firstSeed, std::size_t maxEvaluations, double tolerance, bool relative) {
     auto canonical = [](const std::string& path) {
         std::error_code ec;
         const fs::path c = fs::weakly_canonical(fs::absolute(path), ec);
         return ec ? path : c.string();
     };
-    std::string t = "crowdhealth calibrate 1\nscenario " + canonical(s.input) + "\nscenario_content " + fileHash(s.input) +
-                    "\ndata " + canonical(dataPath) + "\ndata_content " + fileHash(dataPath) + "\n";
+    std::string t = "crowdhealth calibrate 1\nscenario " + canonical(s.input) + "\nscenario_content " + fileHash(s.input) + "\n" +
+                    readFilesText(included) + "data " + canonical(dataPath) + "\ndata_content " + fileHash(dataPath) + "\n";
     for (const FitParameter& f : s.fits) t += "fit " + f.target + "=" + shortest(f.lo) + ":" + shortest(f.hi) + "\n";
     t += "seeds " + std::to_string(seeds) + "\nseed " + std::to_string(firstSeed) + "\n";
     t += "max_evaluations " + std::to_string(maxEvaluations) + "\ntolerance " + shortest(tolerance) + "\n";
@@ -533,7 +534,8 @@ void printCalibrateHelp(std::ostream& out, const po::options_description& visibl
            "Resume: every run that gives a value is recorded in OUTDIR/.calibrate/runs.txt as it\n"
            "finishes; the same command again (after Ctrl-C, a kill, a crash or a job's time limit)\n"
            "takes those from the record, runs the others, and writes the files a calibration made in\n"
-           "one go writes. Other arguments, data or scenario with the same OUTDIR are refused.\n\n";
+           "one go writes. Other arguments, data or scenario (or an edited file it reads, or a rebuilt\n"
+           "plugin) with the same OUTDIR are refused.\n\n";
     out << visible << "\n"
         << "Exit status: 0 fitted; 1 every evaluation failed or OUTDIR cannot be written; 2 bad\n"
            "arguments, data or scenario; 130 interrupted (the same command resumes).\n";
@@ -736,6 +738,7 @@ int calibrateCommand(int argc, char* argv[]) {
             return kExitInput;
         }
     std::uint64_t firstSeed = 0;
+    std::vector<std::string> included;  // the files the conditions' scenarios read, each once
     for (std::size_t c = 0; c < s.scenarioTexts.size(); ++c) {
         ch::Diagnostics diags;
         ch::LoadOptions lo;
@@ -757,6 +760,8 @@ int calibrateCommand(int argc, char* argv[]) {
                 << ") is not valid; nothing was simulated or written\n";
             return kExitInput;
         }
+        for (const std::string& f : spec->includedFiles)
+            if (std::find(included.begin(), included.end(), f) == included.end()) included.push_back(f);
         if (c == 0) {
             diags.print(err);  // the warnings, once (the first condition), as a run shows them
             firstSeed = spec->seed;
@@ -804,7 +809,7 @@ int calibrateCommand(int argc, char* argv[]) {
     std::map<std::string, std::string> recorded;
     if (pool.controller()) {
         const std::string arguments =
-            calibrationArguments(s, dataPath, seeds, firstSeed, maxEvaluations, tolerance, relative);
+            calibrationArguments(s, included, dataPath, seeds, firstSeed, maxEvaluations, tolerance, relative);
         std::error_code ec;
         if (fs::exists(state / "arguments", ec)) {
             std::ifstream in(state / "arguments", std::ios::binary);

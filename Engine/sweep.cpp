@@ -11,6 +11,7 @@
 #include "scenario_run.h"
 #include "signals.h"
 
+#include <crowdhealth/core/plugins.h>
 #include <crowdhealth/core/simulation.h>
 #include <crowdhealth/health/safety.h>
 #include <crowdhealth/io/output.h>
@@ -550,7 +551,8 @@ void printSweepHelp(std::ostream& out, const po::options_description& visible) {
            "argument (exit 2) before anything runs.\n\n"
            "Resume: every finished run leaves a record in OUTDIR/.sweep/runs; the same command again runs\n"
            "only the runs without one (a failed run is tried again) and writes the same files. Other\n"
-           "arguments (or an edited scenario) with the same OUTDIR are refused (exit 2).\n"
+           "arguments, an edited scenario or file it reads, or a rebuilt plugin, with the same OUTDIR are\n"
+           "refused (exit 2).\n"
            "MPI: `mpirun -n K crowdhealth sweep ...` (or srun) runs the same sweep on K processes: rank 0\n"
            "hands out the runs one at a time to ranks 1 ... K-1 (one run each at a time; --jobs applies\n"
            "only without MPI or with -n 1) and alone prints and writes OUTDIR. The files are the same\n"
@@ -589,11 +591,12 @@ std::optional<std::string> parseTarget(const std::string& target, ch::RampSpec& 
 }
 
 /// OUTDIR/.sweep/arguments: what makes the runs what they are (not --jobs, --quiet, --keep-runs).
-std::string argumentsText(const SweepSettings& s, std::uint64_t firstSeed) {
+std::string argumentsText(const SweepSettings& s, const ch::ScenarioSpec& spec, std::uint64_t firstSeed) {
     std::error_code ec;
     fs::path scenario = fs::weakly_canonical(fs::absolute(s.input), ec);
     if (ec) scenario = s.input;
-    std::string t = "crowdhealth sweep 1\nscenario " + scenario.string() + "\nscenario_content " + fileHash(s.input) + "\n";
+    std::string t = "crowdhealth sweep 1\nscenario " + scenario.string() + "\nscenario_content " + fileHash(s.input) + "\n" +
+                    readFilesText(spec.includedFiles);
     for (const SweepAxis& a : s.axes) {
         t += "vary " + a.target + "=";
         for (std::size_t k = 0; k < a.values.size(); ++k) t += (k ? "," : "") + exactNumber(a.values[k]);
@@ -618,6 +621,19 @@ std::string fileHash(const fs::path& p) {
     char buf[32];
     std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h));
     return buf;
+}
+
+std::string readFilesText(const std::vector<std::string>& included) {
+    const auto canonical = [](const std::string& path) {
+        std::error_code ec;
+        const fs::path c = fs::weakly_canonical(fs::absolute(path), ec);
+        return ec ? path : c.string();
+    };
+    std::string t;
+    for (const std::string& f : included)
+        t += "included " + canonical(f) + "\nincluded_content " + fileHash(f) + "\n";
+    for (const std::string& p : ch::loadedPlugins()) t += "plugin " + p + "\nplugin_content " + fileHash(p) + "\n";
+    return t;
 }
 
 std::string firstDifference(const std::string& was, const std::string& now) {
@@ -787,7 +803,7 @@ int sweepCommand(int argc, char* argv[]) {
         if (!pool.controller()) return kExitOk;
 
         // ---- OUTDIR: new, or a sweep with the same arguments ----
-        const std::string arguments = argumentsText(s, firstSeed);
+        const std::string arguments = argumentsText(s, *first, firstSeed);
         std::error_code ec;
         if (fs::exists(state / "arguments", ec)) {
             std::ifstream in(state / "arguments", std::ios::binary);

@@ -78,6 +78,11 @@ std::string sweepSummaryCsv(const std::vector<SweepAxis>& axes, const std::vecto
 /// changed since the first call: sweep's and calibrate's `arguments` files).
 std::string fileHash(const std::filesystem::path& p);
 
+/// Lines naming, with their content hashes, the files a scenario reads besides its main file
+/// (`included`: ScenarioSpec::includedFiles) and every plugin loaded (--plugin and <Plugin file>), for the
+/// `arguments` files: a resumed sweep or calibration refuses one that was edited or rebuilt.
+std::string readFilesText(const std::vector<std::string>& included);
+
 /// The first line where two texts differ, as "there: 'A', now: 'B'" (resume's refusal message).
 std::string firstDifference(const std::string& was, const std::string& now);
 

@@ -207,6 +207,35 @@ BOOST_AUTO_TEST_CASE(killed_and_interrupted_calibrations_resume_to_the_same_file
     BOOST_TEST(lines(readFile(runs)).size() == records.size());
 }
 
+BOOST_AUTO_TEST_CASE(an_edited_policies_file_is_not_resumed) {
+    // The template with its policies in a file of their own (<Policies file>): the file's content
+    // is part of OUTDIR/.calibrate/arguments, so an edit between two calls is refused (exit 2,
+    // naming it) and the file as it was resumes.
+    const fs::path d = freshDir(caseName());
+    std::string t = readFile(templ());
+    const auto from = t.find("\t<Policies>"), to = t.find("</Policies>\n") + 12;
+    const std::string policies = t.substr(from, to - from);
+    t.replace(from, to - from, "\t<Policies file=\"door-policies.xml\"/>\n");
+    writeText(d / "door.xml", t);
+    writeText(d / "door-policies.xml", policies);
+    std::vector<std::string> args = calibrateArgs(d / "out", {"--max-evaluations", "3"});
+    *(std::find(args.begin(), args.end(), "-i") + 1) = (d / "door.xml").string();
+    const Result first = run(d, args);
+    BOOST_REQUIRE_MESSAGE(first.status == 0, first.err);
+    const std::string result = readFile(d / "out" / "calibration-result.json");
+    BOOST_TEST(readFile(d / "out" / ".calibrate" / "arguments").find("included " + fs::canonical(d / "door-policies.xml").string() + "\n") !=
+               std::string::npos);
+    writeText(d / "door-policies.xml", "<!-- edited -->\n" + policies);
+    const Result edited = run(d, args);
+    BOOST_TEST(edited.status == 2);
+    BOOST_TEST(edited.err.find("there: 'included_content ") != std::string::npos, edited.err);
+    BOOST_TEST(readFile(d / "out" / "calibration-result.json") == result);
+    writeText(d / "door-policies.xml", policies);
+    const Result again = run(d, args);
+    BOOST_TEST(again.status == 0, again.err);
+    BOOST_TEST(readFile(d / "out" / "calibration-result.json") == result);
+}
+
 BOOST_AUTO_TEST_CASE(a_bound_is_reached_and_respected) {
     // The data want 1.2; a box that stops at 1.0 gives 1.0 (at_bound), never a value above it.
     const fs::path d = freshDir(caseName());

@@ -8,6 +8,7 @@
 #include "cli_support.h"
 
 #include <cmath>
+#include <fstream>
 #include <map>
 
 using namespace clitest;
@@ -149,6 +150,57 @@ BOOST_AUTO_TEST_CASE(a_plugin_named_in_a_policies_file_relative_to_that_file) {
     const Result twice = run(dir, {"--plugin", "lib/libdistancing.so", "-i", "scenario.xml", "-o", "out2", "-q"});
     BOOST_TEST_MESSAGE(twice.err);
     BOOST_TEST(twice.status == 0);
+}
+
+BOOST_AUTO_TEST_CASE(a_sweep_is_not_resumed_after_an_included_file_or_a_plugin_changed) {
+    // The scenario names a policies file, which names the plugin. A sweep's resume compares the
+    // content of both with the first call's (OUTDIR/.sweep/arguments): an edited policies file or
+    // a rebuilt plugin is refused, exit 2, naming what changed; nothing in OUTDIR changes.
+    const fs::path dir = freshDir(caseName());
+    fs::create_directories(dir / "lib");
+    fs::copy_file(kPlugin, dir / "lib" / "libdistancing.so");
+    const std::string policies = "<Policies>\n  <Plugin file=\"../lib/libdistancing.so\" />\n"
+                                 "  <Policy id=\"0\" OptimizationMethod=\"gradient\" RelaxationTime=\"0.5\">\n"
+                                 "    <costfunction name=\"GoalReachingForce\" />\n"
+                                 "    <costfunction name=\"DistancingForce\" distance=\"1.5\" />\n"
+                                 "  </Policy>\n</Policies>\n";
+    writeText(dir / "policies" / "distancing.xml", policies);
+    std::string xml = twoWalkers("", "");
+    const auto from = xml.find("  <Policies>"), to = xml.find("</Policies>\n") + 12;
+    xml.replace(from, to - from, "  <Policies file=\"policies/distancing.xml\" />\n");
+    writeText(dir / "scenario.xml", xml);
+    const std::vector<std::string> args = {"sweep", "-i", "scenario.xml", "-o", "sw", "--vary", "agents.pref_speed=1,1.2",
+                                           "--end-time", "2", "--quiet"};
+    const Result first = run(dir, args);
+    BOOST_REQUIRE_MESSAGE(first.status == 0, first.err);
+    const std::string summary = readFile(dir / "sw" / "sweep-summary.csv");
+    const std::string arguments = readFile(dir / "sw" / ".sweep" / "arguments");
+    BOOST_TEST(contains(arguments, "included " + fs::canonical(dir / "policies" / "distancing.xml").string() + "\n"), arguments);
+    BOOST_TEST(contains(arguments, "plugin " + fs::canonical(dir / "lib" / "libdistancing.so").string() + "\n"), arguments);
+    // Unchanged files: the same call resumes (nothing left to run).
+    const Result same = run(dir, args);
+    BOOST_TEST(same.status == 0, same.err);
+
+    writeText(dir / "policies" / "distancing.xml", policies.substr(0, policies.find("1.5")) + "1.4" +
+                                                       policies.substr(policies.find("1.5") + 3));
+    const Result edited = run(dir, args);
+    BOOST_TEST(edited.status == 2);
+    BOOST_TEST(contains(edited.err, "other arguments"), edited.err);
+    BOOST_TEST(contains(edited.err, "there: 'included_content "), edited.err);
+    writeText(dir / "policies" / "distancing.xml", policies);
+    BOOST_TEST(run(dir, args).status == 0);
+
+    // A rebuilt plugin: other bytes in the same file (bytes appended to a shared library leave it
+    // loadable).
+    {
+        std::ofstream lib(dir / "lib" / "libdistancing.so", std::ios::binary | std::ios::app);
+        lib << "rebuilt";
+    }
+    const Result rebuilt = run(dir, args);
+    BOOST_TEST(rebuilt.status == 2);
+    BOOST_TEST(contains(rebuilt.err, "there: 'plugin_content "), rebuilt.err);
+    BOOST_TEST(readFile(dir / "sw" / "sweep-summary.csv") == summary);
+    BOOST_TEST(readFile(dir / "sw" / ".sweep" / "arguments") == arguments);
 }
 
 BOOST_AUTO_TEST_CASE(the_loader_checks_plugin_parameters_like_built_in_ones) {

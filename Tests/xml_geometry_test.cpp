@@ -176,6 +176,9 @@ BOOST_AUTO_TEST_CASE(dxf_lines_and_polylines_become_walls_in_metres) {
                                .end());
     const ScenarioSpec s = loadOk("walls.xml", scenario("<Obstacles file=\"walls.dxf\" scale=\"0.001\"/>"));
     BOOST_TEST(s.obstacles.size() == 6u);
+    // The drawing is listed among the files the scenario read (sweep and calibrate hash them).
+    BOOST_TEST_REQUIRE(s.includedFiles.size() == 1u);
+    BOOST_TEST(fs::path(s.includedFiles[0]).filename() == "walls.dxf");
     BOOST_TEST(twoPoint(s) == 5u);
     BOOST_TEST(hasSegment(s, Vec2(0, 0), Vec2(10, 0)));
     BOOST_TEST(hasSegment(s, Vec2(0, 5), Vec2(4, 5)));
@@ -488,6 +491,8 @@ BOOST_AUTO_TEST_CASE(wkt_outer_ring_gives_wall_segments_and_holes_give_solid_pol
                              "  (1300 400, 1500 400, 1500 600, 1300 600, 1300 400)\n)\n");
     const ScenarioSpec s = loadOk("pillars.xml", scenario("<Obstacles file=\"pillars.wkt\" scale=\"0.01\"/>"));
     BOOST_TEST(s.obstacles.size() == 6u);
+    BOOST_TEST_REQUIRE(s.includedFiles.size() == 1u);
+    BOOST_TEST(fs::path(s.includedFiles[0]).filename() == "pillars.wkt");
     BOOST_TEST(twoPoint(s) == 4u);
     BOOST_TEST(hasSegment(s, Vec2(0, 0), Vec2(20, 0)));
     BOOST_TEST(hasSegment(s, Vec2(20, 0), Vec2(20, 10)));

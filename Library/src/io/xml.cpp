@@ -374,7 +374,10 @@ bool loadDocument(LoadContext& ctx, const std::string& path, const SourceLoc* na
         return false;
     }
     const tinyxml2::XMLError err = doc.LoadFile(path.c_str());
-    if (err == tinyxml2::XML_SUCCESS) return true;
+    if (err == tinyxml2::XML_SUCCESS) {
+        if (namedBy != nullptr) ctx.spec.includedFiles.push_back(path);
+        return true;
+    }
     if (err == tinyxml2::XML_ERROR_EMPTY_DOCUMENT) {
         ctx.diags.error(SourceLoc{path, 1}, "the file holds no XML element");
         return false;

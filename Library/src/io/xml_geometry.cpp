@@ -641,6 +641,7 @@ void readDxf(LoadContext& ctx, const SourceLoc& namedBy, const std::string& path
             ctx.diags.error(namedBy, "cannot read file '" + path + "'");
             return;
         }
+        ctx.spec.includedFiles.push_back(path);
         std::ostringstream buf;
         buf << in.rdbuf();
         content = buf.str();
@@ -866,6 +867,7 @@ void readWkt(LoadContext& ctx, const SourceLoc& namedBy, const std::string& path
             ctx.diags.error(namedBy, "cannot read file '" + path + "'");
             return;
         }
+        ctx.spec.includedFiles.push_back(path);
         std::ostringstream buf;
         buf << in.rdbuf();
         text = buf.str();

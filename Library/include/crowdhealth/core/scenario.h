@@ -246,6 +246,10 @@ struct ScenarioSpec {
     std::string sourceFile;   ///< the main XML file (for messages and summaries)
     /// Plugins named by <Plugin file="…"/> (canonical paths, in file order), loaded by the loader.
     std::vector<std::string> plugins;
+    /// Every other file the loader read for this scenario: the files named by file= of <Policies>,
+    /// <Agents> and <Obstacles> (XML, DXF, WKT), as opened, in the order read. The main file is
+    /// sourceFile. Sweep and calibrate hash them so that a resumed run notices an edited one.
+    std::vector<std::string> includedFiles;
     double deltaTime = 0.1;   ///< coarse step (s)
     double deltaTimeFine = 0; ///< fine step (s); 0 = same as deltaTime
     double endTime = -1;      ///< s; < 0 = run until every agent has left (or --end-time)
