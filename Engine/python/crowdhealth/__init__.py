@@ -112,6 +112,33 @@ class Scenario:
         self._obstacles.append(("<Box%s/>" % _attrs(dict(x=x, y=y, width=width, height=height)), _caller()))
         return self
 
+    def obstacles_file(self, path, scale=None, layers=None):
+        """<Obstacles file>: the walls (and, from a DXF drawing's layers, exits, targets and
+        measurement lines and areas) of a drawing or a plan made elsewhere: a DXF drawing (.dxf),
+        a WKT walkable area (.wkt) or an XML file whose top-level <Obstacles> holds them.
+
+        path: relative paths are taken from the current directory (the written scenario names the
+        file by its absolute path). scale: metres per drawing unit (.dxf and .wkt only; 0.001 for
+        millimetres). layers (.dxf only): how its layers are read, as a dict {layer: as} or
+        {layer: (as, prefix)}, or a list of (layer, as) and (layer, as, prefix); `as` is wall,
+        boundary, exit, target, line, area or ignore (docs/xml-reference.md, <Layer>)."""
+        items = layers.items() if isinstance(layers, dict) else (layers or [])
+        children = ""
+        for item in items:
+            if isinstance(layers, dict):
+                name, how = item
+                how = tuple(how) if isinstance(how, (tuple, list)) else (how,)
+            else:
+                name, how = item[0], tuple(item[1:])
+            if len(how) not in (1, 2):
+                raise ValueError("layer %r: give its role and at most a prefix, not %r" % (name, how))
+            children += "<Layer%s/>" % _attrs(dict(name=name, **{"as": how[0]},
+                                                    prefix=how[1] if len(how) > 1 else None))
+        attrs = _attrs(dict(file=os.path.abspath(os.fspath(path)), scale=scale))
+        xml = "<Obstacles%s>%s</Obstacles>" % (attrs, children) if children else "<Obstacles%s/>" % attrs
+        self._obstacles.append((xml, _caller()))
+        return self
+
     # ---- venues (docs/navigation.md) ---------------------------------------------------------
     def navigation(self, cell_size=None, clearance=None, min_speed=None, margin=None):
         """<Navigation>: agents follow the shortest walkable path to their target (a distance field

@@ -12,7 +12,10 @@ import subprocess
 import sys
 
 import contextlib
+import inspect
 import warnings
+
+from xml.sax.saxutils import quoteattr
 
 import numpy as np
 import pytest
@@ -428,6 +431,98 @@ def test_spawn_rectangle_in_code_equals_the_xml_file(tmp_path):
     run_alike(tmp_path, a, b, ["metrics.csv", "health.csv", "evacuations.csv"])
     assert a.agent_count + a.evacuated == b.agent_count + b.evacuated == 30
     assert 0 < b.evacuated < 30  # the first waves reach the goal and leave
+
+
+CONCOURSE_DXF = SRC / "Examples" / "venues" / "concourse.dxf"
+
+DRAWING_XML = """<?xml version="1.0"?>
+<Simulation delta_time="0.1" end_time="45" seed="4">
+\t<World type="Infinite">
+\t\t<Obstacles file="%s" scale="0.001">
+\t\t\t<Layer name="EXITS" as="exit" prefix="EXIT"/>
+\t\t\t<Layer name="GATES" as="target"/>
+\t\t\t<Layer name="COUNT" as="line" prefix="DOOR"/>
+\t\t\t<Layer name="ZONES" as="area" prefix="FRONT"/>
+\t\t\t<Layer name="NOTES" as="ignore"/>
+\t\t</Obstacles>
+\t\t<Navigation/>
+\t\t<ExitSet id="doors" exits="EXIT-1 EXIT-2 EXIT-3" choice="quickest"/>
+\t\t<Journey id="through" leave_by="doors"><Waypoint target="GATES-1" dwell="0.5" capacity="4"/></Journey>
+\t</World>
+\t<Policies>
+\t\t<Policy id="0" OptimizationMethod="gradient" RelaxationTime="0.5" ContactForceScale="62.5">
+\t\t\t<costfunction name="SocialForcesAvoidance" range="5" R="0.1"/>
+\t\t\t<costfunction name="GoalReachingForce"/>
+\t\t</Policy>
+\t</Policies>
+\t<Output metrics_interval="1"/>
+\t<Measurement interval="1"><Line id="SECURITY" x1="25" y1="13" x2="25" y2="17"/></Measurement>
+\t<Agents>
+\t\t<AgentGrid x="16" y="12" columns="4" rows="5" spacing="1.2" rad_min="0.2" rad_max="0.25" pref_speed="1.3"
+\t\t\tmax_speed="1.6" journey="through"><Policy id="0"/></AgentGrid>
+\t</Agents>
+</Simulation>
+"""
+
+
+def drawing_in_code(path=CONCOURSE_DXF, layers=None):
+    s = crowdhealth.Scenario(delta_time=0.1, end_time=45, seed=4)
+    if layers is None:
+        layers = {"EXITS": ("exit", "EXIT"), "GATES": "target", "COUNT": ("line", "DOOR"), "ZONES": ["area", "FRONT"],
+                  "NOTES": "ignore"}
+    s.obstacles_file(path, scale=0.001, layers=layers)
+    s.navigation()
+    s.exit_set("doors", ["EXIT-1", "EXIT-2", "EXIT-3"], choice="quickest")
+    s.journey("through", [("GATES-1", 0.5, 4)], leave_by="doors")
+    s.policy(0, [("SocialForcesAvoidance", {"range": 5, "R": 0.1}), "GoalReachingForce"], method="gradient",
+             relaxation_time=0.5, contact_force_scale=62.5)
+    s.output(metrics_interval=1)
+    s.measurement(interval=1).line("SECURITY", 25, 13, 25, 17)
+    s.agent_grid(16, 12, columns=4, rows=5, spacing=1.2, rad_min=0.2, rad_max=0.25, pref_speed=1.3, max_speed=1.6,
+                 journey="through")
+    return s
+
+
+def test_a_drawing_in_code_equals_the_xml_file(tmp_path):
+    # The walls, exits, checkpoint, lines and areas of Examples/venues/concourse.dxf, named by
+    # obstacles_file() and by the file by hand: the same run, byte for byte.
+    path = tmp_path / "drawing.xml"
+    path.write_text(DRAWING_XML % CONCOURSE_DXF)
+    with warnings_as_errors():
+        a = crowdhealth.Simulation(path)
+        b = crowdhealth.Simulation(drawing_in_code())
+    assert a.agent_count == b.agent_count == 20
+    run_alike(tmp_path, a, b, ["metrics.csv", "health.csv", "evacuations.csv", "flows.csv", "areas.csv"])
+    flows = (tmp_path / "b" / "flows.csv").read_text()
+    assert "DOOR-1" in flows and "SECURITY" in flows  # lines from the drawing's layer and from code
+    assert "FRONT-1" in (tmp_path / "b" / "areas.csv").read_text()
+    assert b.evacuated > 0
+    # The layers as a list of tuples say the same; a relative path is taken from the current directory.
+    layers = [("EXITS", "exit", "EXIT"), ("GATES", "target"), ("COUNT", "line", "DOOR"), ("ZONES", "area", "FRONT"),
+              ("NOTES", "ignore")]
+    here = os.getcwd()
+    try:
+        os.chdir(CONCOURSE_DXF.parent)
+        text = drawing_in_code("concourse.dxf", layers).to_xml()
+    finally:
+        os.chdir(here)
+    assert text == drawing_in_code().to_xml()
+    assert 'file=%s' % quoteattr(str(CONCOURSE_DXF)) in text
+
+
+def test_drawing_errors_name_the_builder_call(tmp_path):
+    s = drawing_in_code(tmp_path / "missing.dxf")
+    with pytest.raises(crowdhealth.ScenarioError) as e:
+        crowdhealth.Simulation(s)
+    lines, first = inspect.getsourcelines(drawing_in_code)
+    call = first + next(k for k, line in enumerate(lines) if "s.obstacles_file(" in line)
+    assert "test_crowdhealth.py:%d:" % call in str(e.value)  # the obstacles_file() call
+    assert "missing.dxf" in str(e.value)
+    s = drawing_in_code(layers={"EXITS": "exit", "WALLS": "doorway"})
+    with pytest.raises(crowdhealth.ScenarioError, match="doorway"):
+        crowdhealth.Simulation(s)
+    with pytest.raises(ValueError, match="EXITS"):
+        drawing_in_code(layers=[("EXITS", "exit", "EXIT", "extra")])
 
 
 def test_venue_errors_name_the_builder_call():
