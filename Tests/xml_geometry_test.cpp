@@ -14,10 +14,12 @@
 #include "scenario_files.h"
 
 #include <algorithm>
+#include <clocale>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <locale>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -196,6 +198,27 @@ BOOST_AUTO_TEST_CASE(dxf_lines_and_polylines_become_walls_in_metres) {
     // Every obstacle remembers its entity's line in the drawing.
     for (const ObstacleSpec& o : s.obstacles) BOOST_TEST(has(o.loc.file, "walls.dxf"));
     BOOST_TEST(s.obstacles[0].loc.line == 5);  // "0 / LINE" after "0 SECTION 2 ENTITIES"
+}
+
+BOOST_AUTO_TEST_CASE(reading_a_dxf_drawing_leaves_the_locale_as_it_was) {
+    // dxflib sets the process's locale to "C" while it reads; a program that embeds the library
+    // (Python, C) must find its own afterwards (Python then still reads its text files as UTF-8).
+    writeFile("locale.dxf", Dxf().entities().line("0", 0, 0, 1000, 0).end());
+    const char* set = std::setlocale(LC_CTYPE, "C.UTF-8");
+    BOOST_TEST_REQUIRE(set != nullptr, "this system has no C.UTF-8 locale");
+    const std::string before = std::setlocale(LC_ALL, nullptr);
+    BOOST_TEST(before != "C");
+    const ScenarioSpec s = loadOk("locale.xml", scenario("<Obstacles file=\"locale.dxf\" scale=\"0.001\"/>"));
+    BOOST_TEST(s.obstacles.size() == 1u);
+    BOOST_TEST(std::string(std::setlocale(LC_ALL, nullptr)) == before);
+    BOOST_TEST(std::locale().name() == "C");  // the C++ global locale, as every program starts
+    // A program that set the C++ global locale too finds both again.
+    std::locale::global(std::locale("C.UTF-8"));
+    (void)loadOk("locale.xml", scenario("<Obstacles file=\"locale.dxf\" scale=\"0.001\"/>"));
+    BOOST_TEST(std::locale().name() == "C.UTF-8");
+    BOOST_TEST(std::string(std::setlocale(LC_CTYPE, nullptr)) == "C.UTF-8");
+    std::locale::global(std::locale::classic());
+    std::setlocale(LC_ALL, "C");
 }
 
 BOOST_AUTO_TEST_CASE(dxf_without_scale_is_in_metres_and_scale_multiplies) {

@@ -13,6 +13,7 @@ import sys
 
 import contextlib
 import inspect
+import locale
 import warnings
 
 from xml.sax.saxutils import quoteattr
@@ -488,10 +489,12 @@ def test_a_drawing_in_code_equals_the_xml_file(tmp_path):
     # obstacles_file() and by the file by hand: the same run, byte for byte.
     path = tmp_path / "drawing.xml"
     path.write_text(DRAWING_XML % CONCOURSE_DXF)
+    before = locale.setlocale(locale.LC_ALL)
     with warnings_as_errors():
         a = crowdhealth.Simulation(path)
         b = crowdhealth.Simulation(drawing_in_code())
     assert a.agent_count == b.agent_count == 20
+    assert locale.setlocale(locale.LC_ALL) == before  # reading the drawing left Python's locale alone
     run_alike(tmp_path, a, b, ["metrics.csv", "health.csv", "evacuations.csv", "flows.csv", "areas.csv"])
     flows = (tmp_path / "b" / "flows.csv").read_text()
     assert "DOOR-1" in flows and "SECURITY" in flows  # lines from the drawing's layer and from code

@@ -18,6 +18,7 @@
 
 #include <algorithm>
 #include <charconv>
+#include <clocale>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -632,6 +633,23 @@ std::optional<std::pair<double, const char*>> unitsScale(int insunits) {
     }
 }
 
+/// Puts the process's C locale back as it was when it was made.
+class KeepLocale {
+public:
+    KeepLocale() {
+        const char* c = std::setlocale(LC_ALL, nullptr);
+        if (c != nullptr) c_ = c;
+    }
+    ~KeepLocale() {
+        if (!c_.empty()) std::setlocale(LC_ALL, c_.c_str());
+    }
+    KeepLocale(const KeepLocale&) = delete;
+    KeepLocale& operator=(const KeepLocale&) = delete;
+
+private:
+    std::string c_;  ///< the C locale's name, possibly composite ("LC_CTYPE=…;LC_NUMERIC=…")
+};
+
 void readDxf(LoadContext& ctx, const SourceLoc& namedBy, const std::string& path, double scale,
              std::vector<LayerRule>& rules) {
     std::string content;
@@ -679,6 +697,11 @@ void readDxf(LoadContext& ctx, const SourceLoc& namedBy, const std::string& path
     DL_Dxf dxf;
     bool ok = false;
     try {
+        // dxflib sets the C++ global locale to "C" while reading and then back to what it was,
+        // which also sets the C locale to that locale's name. In a program whose C locale is not
+        // its C++ global locale's (Python: C.UTF-8 against "C"), the C locale was left "C" (Python
+        // then read text files as ASCII). It is put back as it was.
+        const KeepLocale keep;
         ok = dxf.in(path, &collector);
         collector.finish();
     } catch (const std::exception& e) {
