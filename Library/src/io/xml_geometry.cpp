@@ -23,6 +23,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <mutex>
 #include <set>
 #include <sstream>
 
@@ -700,7 +701,10 @@ void readDxf(LoadContext& ctx, const SourceLoc& namedBy, const std::string& path
         // dxflib sets the C++ global locale to "C" while reading and then back to what it was,
         // which also sets the C locale to that locale's name. In a program whose C locale is not
         // its C++ global locale's (Python: C.UTF-8 against "C"), the C locale was left "C" (Python
-        // then read text files as ASCII). It is put back as it was.
+        // then read text files as ASCII). It is put back as it was. One drawing at a time: the
+        // locale is the process's, and a sweep's runs load their scenarios on several threads.
+        static std::mutex oneAtATime;
+        const std::lock_guard<std::mutex> lock(oneAtATime);
         const KeepLocale keep;
         ok = dxf.in(path, &collector);
         collector.finish();
