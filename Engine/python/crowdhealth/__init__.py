@@ -85,6 +85,7 @@ class Scenario:
         self._obstacles = []   # (xml, origin)
         self._policies = {}    # id -> [attrs, [steps], crowd_health or None, origin]
         self._agents = []      # (xml, origin)
+        self._files = {"Policies": [], "Agents": []}  # (xml, origin) of <Policies file>, <Agents file>
         self._output = {}
         self._ramps = []       # (xml, origin): <Ramp>, <PanicEvent>, <CloseExit>, <OpenExit>, in the order given
         self._safety = None    # (xml, origin)
@@ -189,6 +190,23 @@ class Scenario:
         return self
 
     # ---- policies ---------------------------------------------------------------------------
+    def policies_file(self, path):
+        """<Policies file>: the policies of an XML file whose top-level <Policies> holds them (as
+        UMANS' examples keep theirs), read before those given in code. A relative path is taken
+        from the current directory."""
+        return self._file("Policies", path)
+
+    def agents_file(self, path):
+        """<Agents file>: the agents of an XML file whose top-level <Agents> holds them, placed
+        before those given in code (agents are numbered in that order). A relative path is taken
+        from the current directory."""
+        return self._file("Agents", path)
+
+    def _file(self, block, path):
+        self._files[block].append(("<%s%s/>" % (block, _attrs(dict(file=os.path.abspath(os.fspath(path))))),
+                                   _caller()))
+        return self
+
     def policy(self, id, components, timing="coarse", method="gradient", relaxation_time=None,
                contact_force_scale=None, crowd_health=None, **step_options):
         """A policy with one step. components: list of names, (name, params) or (name, coeff, params),
@@ -367,6 +385,7 @@ class Scenario:
             out.append(self._navigation)
         out.extend(self._venue)
         out.append(("</World>", None))
+        out.extend(self._files["Policies"])
         out.append(("<Policies>", None))
         for pid, (attrs, steps, health, origin) in self._policies.items():
             out.append(("<Policy%s>" % _attrs(attrs), origin))
@@ -389,6 +408,7 @@ class Scenario:
             out.append(("<Measurement%s>" % _attrs(attrs), origin))
             out.extend(self._measures)
             out.append(("</Measurement>", origin))
+        out.extend(self._files["Agents"])
         out.append(("<Agents>", None))
         out.extend(self._agents)
         out.append(("</Agents>", None))

@@ -528,6 +528,67 @@ def test_drawing_errors_name_the_builder_call(tmp_path):
         drawing_in_code(layers=[("EXITS", "exit", "EXIT", "extra")])
 
 
+FILES_XML = """<?xml version="1.0"?>
+<Simulation delta_time="0.1" end_time="12" seed="3">
+\t<World type="Infinite"/>
+\t<Policies file="policies.xml"/>
+\t<Policies>
+\t\t<Policy id="1" OptimizationMethod="gradient" RelaxationTime="0.5">
+\t\t\t<costfunction name="GoalReachingForce"/>
+\t\t\t<costfunction name="SocialForcesAvoidance" range="3"/>
+\t\t</Policy>
+\t</Policies>
+\t<Agents file="agents.xml"/>
+\t<Agents>
+\t\t<Agent id="7" rad="0.25" pref_speed="1.1"><pos x="9" y="0.2"/><goal x="-1" y="0.2"/><Policy id="1"/></Agent>
+\t</Agents>
+</Simulation>
+"""
+
+POLICIES_FILE = """<Policies>
+\t<Policy id="0" OptimizationMethod="gradient" RelaxationTime="0.5">
+\t\t<costfunction name="GoalReachingForce"/>
+\t\t<costfunction name="SocialForcesAvoidance" range="5"/>
+\t</Policy>
+</Policies>
+"""
+
+AGENTS_FILE = """<Agents>
+\t<Agent id="1" rad="0.25"><pos x="0" y="0"/><goal x="10" y="0"/><Policy id="0"/></Agent>
+\t<Agent id="2" rad="0.25"><pos x="0" y="1"/><goal x="10" y="1"/><Policy id="0"/></Agent>
+</Agents>
+"""
+
+
+def test_policies_and_agents_files_in_code_equal_the_xml_file(tmp_path):
+    # <Policies file> and <Agents file> beside policies and agents given in code: the files' come
+    # first (agents are numbered in that order), as in the scenario written by hand.
+    (tmp_path / "policies.xml").write_text(POLICIES_FILE)
+    (tmp_path / "agents.xml").write_text(AGENTS_FILE)
+    (tmp_path / "files.xml").write_text(FILES_XML)
+    here = os.getcwd()
+    try:
+        os.chdir(tmp_path)  # relative paths: from the current directory
+        s = crowdhealth.Scenario(delta_time=0.1, end_time=12, seed=3)
+        s.policies_file("policies.xml").agents_file("agents.xml")
+    finally:
+        os.chdir(here)
+    s.policy(1, ["GoalReachingForce", ("SocialForcesAvoidance", {"range": 3})], relaxation_time=0.5)
+    s.agent(9, 0.2, goal=(-1, 0.2), policy=1, id=7, radius=0.25, pref_speed=1.1)
+    with warnings_as_errors():
+        a = crowdhealth.Simulation(tmp_path / "files.xml")
+        b = crowdhealth.Simulation(s)
+    assert list(a.ids()) == list(b.ids()) == [1, 2, 7]
+    run_alike(tmp_path, a, b, ["metrics.csv", "health.csv", "evacuations.csv"])
+    assert 'file=%s' % quoteattr(str(tmp_path / "policies.xml")) in s.to_xml()
+    # A file that is not there is an error at the call that named it.
+    s = crowdhealth.Scenario().agents_file(tmp_path / "nobody.xml").policy(0, ["GoalReachingForce"])
+    with pytest.raises(crowdhealth.ScenarioError) as e:
+        crowdhealth.Simulation(s)
+    assert "test_crowdhealth.py:%d:" % (sys._getframe().f_lineno - 3) in str(e.value)
+    assert "nobody.xml" in str(e.value)
+
+
 def test_venue_errors_name_the_builder_call():
     s = venue_in_code().exit_set("west", ["south", "nowhere"])
     with pytest.raises(crowdhealth.ScenarioError) as e:
