@@ -463,15 +463,12 @@ bool invert(std::vector<std::vector<double>>& a) {
 // recorded (they are run again: a failure here is the scenario's, and happens again).
 
 /// The text of OUTDIR/.calibrate/arguments.
-std::string calibrationArguments(const CalibrationSetup& s, const std::vector<std::string>& included, const std::string& dataPath, std::size_t seeds,
-                                 std::uint64_t firstSeed, std::size_t maxEvaluations, double tolerance, bool relative) {
-    auto canonical = [](const std::string& path) {
-        std::error_code ec;
-        const fs::path c = fs::weakly_canonical(fs::absolute(path), ec);
-        return ec ? path : c.string();
-    };
-    std::string t = "crowdhealth calibrate 1\nscenario " + canonical(s.input) + "\nscenario_content " + fileHash(s.input) + "\n" +
-                    readFilesText(included) + "data " + canonical(dataPath) + "\ndata_content " + fileHash(dataPath) + "\n";
+std::string calibrationArguments(const CalibrationSetup& s, const std::vector<std::string>& included,
+                                 const std::string& dataPath, std::size_t seeds, std::uint64_t firstSeed,
+                                 std::size_t maxEvaluations, double tolerance, bool relative) {
+    std::string t = "crowdhealth calibrate 1\nscenario " + canonicalPath(s.input) + "\nscenario_content " +
+                    fileHash(s.input) + "\n" + readFilesText(included) + "data " + canonicalPath(dataPath) +
+                    "\ndata_content " + fileHash(dataPath) + "\n";
     for (const FitParameter& f : s.fits) t += "fit " + f.target + "=" + shortest(f.lo) + ":" + shortest(f.hi) + "\n";
     t += "seeds " + std::to_string(seeds) + "\nseed " + std::to_string(firstSeed) + "\n";
     t += "max_evaluations " + std::to_string(maxEvaluations) + "\ntolerance " + shortest(tolerance) + "\n";

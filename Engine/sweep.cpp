@@ -592,11 +592,8 @@ std::optional<std::string> parseTarget(const std::string& target, ch::RampSpec& 
 
 /// OUTDIR/.sweep/arguments: what makes the runs what they are (not --jobs, --quiet, --keep-runs).
 std::string argumentsText(const SweepSettings& s, const ch::ScenarioSpec& spec, std::uint64_t firstSeed) {
-    std::error_code ec;
-    fs::path scenario = fs::weakly_canonical(fs::absolute(s.input), ec);
-    if (ec) scenario = s.input;
-    std::string t = "crowdhealth sweep 1\nscenario " + scenario.string() + "\nscenario_content " + fileHash(s.input) + "\n" +
-                    readFilesText(spec.includedFiles);
+    std::string t = "crowdhealth sweep 1\nscenario " + canonicalPath(s.input) + "\nscenario_content " +
+                    fileHash(s.input) + "\n" + readFilesText(spec.includedFiles);
     for (const SweepAxis& a : s.axes) {
         t += "vary " + a.target + "=";
         for (std::size_t k = 0; k < a.values.size(); ++k) t += (k ? "," : "") + exactNumber(a.values[k]);
@@ -623,15 +620,16 @@ std::string fileHash(const fs::path& p) {
     return buf;
 }
 
+std::string canonicalPath(const std::string& path) {
+    std::error_code ec;
+    const fs::path c = fs::weakly_canonical(fs::absolute(path), ec);
+    return ec ? path : c.string();
+}
+
 std::string readFilesText(const std::vector<std::string>& included) {
-    const auto canonical = [](const std::string& path) {
-        std::error_code ec;
-        const fs::path c = fs::weakly_canonical(fs::absolute(path), ec);
-        return ec ? path : c.string();
-    };
     std::string t;
     for (const std::string& f : included)
-        t += "included " + canonical(f) + "\nincluded_content " + fileHash(f) + "\n";
+        t += "included " + canonicalPath(f) + "\nincluded_content " + fileHash(f) + "\n";
     for (const std::string& p : ch::loadedPlugins()) t += "plugin " + p + "\nplugin_content " + fileHash(p) + "\n";
     return t;
 }

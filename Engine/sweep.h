@@ -78,6 +78,9 @@ std::string sweepSummaryCsv(const std::vector<SweepAxis>& axes, const std::vecto
 /// changed since the first call: sweep's and calibrate's `arguments` files).
 std::string fileHash(const std::filesystem::path& p);
 
+/// `path` made absolute and canonical where it can be (the files as `arguments` names them).
+std::string canonicalPath(const std::string& path);
+
 /// Lines naming, with their content hashes, the files a scenario reads besides its main file
 /// (`included`: ScenarioSpec::includedFiles) and every plugin loaded (--plugin and <Plugin file>), for the
 /// `arguments` files: a resumed sweep or calibration refuses one that was edited or rebuilt.
