@@ -814,7 +814,7 @@ int calibrateCommand(int argc, char* argv[]) {
             was << in.rdbuf();
             if (was.str() != arguments) {
                 std::cerr << "crowdhealth: error: " << output.string()
-                          << " holds a calibration made with other arguments, data or scenario ("
+                          << " holds a calibration made with other arguments, data, scenario or files it reads ("
                           << firstDifference(was.str(), arguments)
                           << "); it is not resumed: give another -o OUTDIR, or the same arguments as before\n";
                 return kExitInput;

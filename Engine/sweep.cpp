@@ -629,8 +629,8 @@ std::string canonicalPath(const std::string& path) {
 std::string readFilesText(const std::vector<std::string>& included) {
     std::string t;
     for (const std::string& f : included)
-        t += "included " + canonicalPath(f) + "\nincluded_content " + fileHash(f) + "\n";
-    for (const std::string& p : ch::loadedPlugins()) t += "plugin " + p + "\nplugin_content " + fileHash(p) + "\n";
+        t += "included " + canonicalPath(f) + " (content " + fileHash(f) + ")\n";
+    for (const std::string& p : ch::loadedPlugins()) t += "plugin " + p + " (content " + fileHash(p) + ")\n";
     return t;
 }
 
@@ -809,7 +809,7 @@ int sweepCommand(int argc, char* argv[]) {
             was << in.rdbuf();
             if (was.str() != arguments) {
                 std::cerr << "crowdhealth: error: " << s.output.string()
-                          << " holds a sweep made with other arguments or another scenario ("
+                          << " holds a sweep made with other arguments, another scenario or other files it reads ("
                           << firstDifference(was.str(), arguments)
                           << "); it is not resumed: give another -o OUTDIR, or the same arguments as before\n";
                 return kExitInput;

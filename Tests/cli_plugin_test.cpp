@@ -175,8 +175,8 @@ BOOST_AUTO_TEST_CASE(a_sweep_is_not_resumed_after_an_included_file_or_a_plugin_c
     BOOST_REQUIRE_MESSAGE(first.status == 0, first.err);
     const std::string summary = readFile(dir / "sw" / "sweep-summary.csv");
     const std::string arguments = readFile(dir / "sw" / ".sweep" / "arguments");
-    BOOST_TEST(contains(arguments, "included " + fs::canonical(dir / "policies" / "distancing.xml").string() + "\n"), arguments);
-    BOOST_TEST(contains(arguments, "plugin " + fs::canonical(dir / "lib" / "libdistancing.so").string() + "\n"), arguments);
+    BOOST_TEST(contains(arguments, "included " + fs::canonical(dir / "policies" / "distancing.xml").string() + " (content "), arguments);
+    BOOST_TEST(contains(arguments, "plugin " + fs::canonical(dir / "lib" / "libdistancing.so").string() + " (content "), arguments);
     // Unchanged files: the same call resumes (nothing left to run).
     const Result same = run(dir, args);
     BOOST_TEST(same.status == 0, same.err);
@@ -186,7 +186,9 @@ BOOST_AUTO_TEST_CASE(a_sweep_is_not_resumed_after_an_included_file_or_a_plugin_c
     const Result edited = run(dir, args);
     BOOST_TEST(edited.status == 2);
     BOOST_TEST(contains(edited.err, "other arguments"), edited.err);
-    BOOST_TEST(contains(edited.err, "there: 'included_content "), edited.err);
+    const std::string policiesFile = fs::canonical(dir / "policies" / "distancing.xml").string();
+    BOOST_TEST(contains(edited.err, "there: 'included " + policiesFile + " (content "), edited.err);
+    BOOST_TEST(contains(edited.err, "now: 'included " + policiesFile + " (content "), edited.err);
     writeText(dir / "policies" / "distancing.xml", policies);
     BOOST_TEST(run(dir, args).status == 0);
 
@@ -198,7 +200,8 @@ BOOST_AUTO_TEST_CASE(a_sweep_is_not_resumed_after_an_included_file_or_a_plugin_c
     }
     const Result rebuilt = run(dir, args);
     BOOST_TEST(rebuilt.status == 2);
-    BOOST_TEST(contains(rebuilt.err, "there: 'plugin_content "), rebuilt.err);
+    BOOST_TEST(contains(rebuilt.err, "there: 'plugin " + fs::canonical(dir / "lib" / "libdistancing.so").string() + " (content "),
+               rebuilt.err);
     BOOST_TEST(readFile(dir / "sw" / "sweep-summary.csv") == summary);
     BOOST_TEST(readFile(dir / "sw" / ".sweep" / "arguments") == arguments);
 }
