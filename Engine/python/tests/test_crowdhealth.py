@@ -657,7 +657,7 @@ def _python_env():
 
 
 def test_the_docs_example_runs(tmp_path):
-    text = (SRC / "docs" / "python.md").read_text()
+    text = (SRC / "docs" / "python.md").read_text(encoding="utf-8")
     m = re.search(r"<!-- example: run by Engine/python/tests -->\s*```python\n(.*?)```", text, re.S)
     assert m, "docs/python.md lost its complete example"
     (tmp_path / "example.py").write_text(m.group(1))
@@ -670,7 +670,7 @@ def test_the_docs_example_runs(tmp_path):
 def docs_block(name):
     """Runs the code block of docs/python.md marked `<!-- NAME example: run by Engine/python/tests -->`
     as written there (no scenario warning allowed) and returns its variables."""
-    text = (SRC / "docs" / "python.md").read_text()
+    text = (SRC / "docs" / "python.md").read_text(encoding="utf-8")
     m = re.search(r"<!-- %s example: run by Engine/python/tests -->\s*```python\n(.*?)```" % name, text, re.S)
     assert m, "docs/python.md lost its %s example" % name
     scope = {"np": np, "crowdhealth": crowdhealth}
