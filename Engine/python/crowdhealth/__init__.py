@@ -58,6 +58,12 @@ def _place(tag, id, x, y, radius, xmin, xmax, ymin, ymax, points, extra):
     return "<%s%s>%s</%s>" % (tag, attrs, _points(points), tag)
 
 
+def _absolute(path):
+    """A file named to the builder, from the current directory (the scenario it writes lives in a
+    temporary folder, so it names files by their absolute paths)."""
+    return os.path.abspath(os.fspath(path))
+
+
 def _caller():
     """file:line of the user's call into the builder (for error messages)."""
     here = os.path.dirname(os.path.abspath(__file__))
@@ -123,19 +129,15 @@ class Scenario:
         millimetres). layers (.dxf only): how its layers are read, as a dict {layer: as} or
         {layer: (as, prefix)}, or a list of (layer, as) and (layer, as, prefix); `as` is wall,
         boundary, exit, target, line, area or ignore (docs/xml-reference.md, <Layer>)."""
-        items = layers.items() if isinstance(layers, dict) else (layers or [])
+        entries = layers.items() if isinstance(layers, dict) else ((item[0], item[1:]) for item in layers or [])
         children = ""
-        for item in items:
-            if isinstance(layers, dict):
-                name, how = item
-                how = tuple(how) if isinstance(how, (tuple, list)) else (how,)
-            else:
-                name, how = item[0], tuple(item[1:])
+        for name, how in entries:
+            how = tuple(how) if isinstance(how, (tuple, list)) else (how,)
             if len(how) not in (1, 2):
                 raise ValueError("layer %r: give its role and at most a prefix, not %r" % (name, how))
             children += "<Layer%s/>" % _attrs(dict(name=name, **{"as": how[0]},
                                                     prefix=how[1] if len(how) > 1 else None))
-        attrs = _attrs(dict(file=os.path.abspath(os.fspath(path)), scale=scale))
+        attrs = _attrs(dict(file=_absolute(path), scale=scale))
         xml = "<Obstacles%s>%s</Obstacles>" % (attrs, children) if children else "<Obstacles%s/>" % attrs
         self._obstacles.append((xml, _caller()))
         return self
@@ -203,8 +205,7 @@ class Scenario:
         return self._file("Agents", path)
 
     def _file(self, block, path):
-        self._files[block].append(("<%s%s/>" % (block, _attrs(dict(file=os.path.abspath(os.fspath(path))))),
-                                   _caller()))
+        self._files[block].append(("<%s%s/>" % (block, _attrs(dict(file=_absolute(path)))), _caller()))
         return self
 
     def policy(self, id, components, timing="coarse", method="gradient", relaxation_time=None,
