@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <limits>
 #include <random>
+#include <span>
 #include <vector>
 
 using namespace ch;
@@ -114,5 +115,45 @@ BOOST_AUTO_TEST_CASE(storage_is_reused_across_sets) {
         for (double& x : v) x = metres(rng);
         index.assign(v);  // storage left over from a longer or shorter set
         BOOST_TEST(mismatches(index, v) == 0u, n << " values");
+    }
+}
+
+BOOST_AUTO_TEST_CASE(a_set_given_in_parts_counts_as_the_whole) {
+    // Navigation gathers each exit's distances on every thread apart and indexes the parts at once:
+    // every split (empty parts, one value, the extremes alone in a part, crowded values spread over
+    // the parts) must count as the values together.
+    std::mt19937_64 rng(11);
+    std::uniform_real_distribution<double> metres(0.0, 120.0);
+    std::uniform_int_distribution<int> cut(0, 4);
+    RankIndex index;
+    for (const std::size_t n : {std::size_t{0}, std::size_t{1}, std::size_t{9}, std::size_t{2500}}) {
+        std::vector<double> v(n);
+        for (double& x : v) x = metres(rng);
+        if (n > 8)
+            for (std::size_t k = 0; k < n; k += 3) v[k] = 40.0;  // a crowded bucket, sorted and searched
+        for (int split = 0; split < 5; ++split) {
+            // Parts of random lengths, some empty; split 4 puts the smallest and the largest value
+            // each alone in a part of its own, last.
+            std::vector<double> w = v;
+            std::vector<std::vector<double>> parts(5);
+            if (split == 4 && n > 1) {
+                std::sort(w.begin(), w.end());
+                parts[3] = {w.back()};
+                parts[4] = {w.front()};
+                w = std::vector<double>(w.begin() + 1, w.end() - 1);
+                std::shuffle(w.begin(), w.end(), rng);
+            }
+            std::size_t at = 0;
+            for (int p = 0; p < 3 && at < w.size(); ++p) {
+                const std::size_t len = std::min(w.size() - at, static_cast<std::size_t>(cut(rng)) * w.size() / 4);
+                parts[static_cast<std::size_t>(p)].assign(w.begin() + static_cast<std::ptrdiff_t>(at), w.begin() + static_cast<std::ptrdiff_t>(at + len));
+                at += len;
+            }
+            parts[2].insert(parts[2].end(), w.begin() + static_cast<std::ptrdiff_t>(at), w.end());
+            std::vector<std::span<const double>> spans;
+            for (const auto& p : parts) spans.emplace_back(p);
+            index.assign(spans);
+            BOOST_TEST(mismatches(index, v) == 0u, n << " values, split " << split);
+        }
     }
 }

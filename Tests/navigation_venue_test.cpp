@@ -425,6 +425,52 @@ BOOST_AUTO_TEST_CASE(closing_an_exit_reroutes_everyone_heading_there) {
     for (const auto& [id, exit] : o.exitOf) BOOST_TEST((exit == "west" || exit == "south"), "agent " << id << " left by " << exit);
 }
 
+namespace {
+/// agentsAt's agents in social groups of `size` consecutive agents (groups "g0", "g1", …).
+std::string inGroups(const std::string& agents, int size) {
+    std::string out;
+    std::size_t at = 0;
+    for (int k = 0;; ++k) {
+        const std::size_t next = agents.find("<Agent ", at);
+        if (next == std::string::npos) break;
+        out += agents.substr(at, next - at) + "<Agent group=\"g" + std::to_string(k / size) + "\" ";
+        at = next + 7;
+    }
+    return out + agents.substr(at);
+}
+
+/// Per social group of the scenario, the exits its members left by from time `from` on.
+std::map<std::string, std::set<std::string>> exitsByGroup(const ScenarioSpec& spec, const Outcome& o, double from = 0) {
+    std::map<std::string, std::set<std::string>> out;
+    for (const AgentSpec& a : spec.agents)
+        if (a.groupIndex >= 0 && o.exitOf.count(a.id) && o.timeOf.at(a.id) >= from)
+            out[spec.groups[static_cast<std::size_t>(a.groupIndex)]].insert(o.exitOf.at(a.id));
+    return out;
+}
+}  // namespace
+
+BOOST_AUTO_TEST_CASE(closing_an_exit_reroutes_social_groups_as_one_by_the_quickest_rule) {
+    // As above, in pairs and choosing the quickest exit: a group's members choose after each
+    // other, the first by the rule and the second taking its exit (navigation.h), so every pair
+    // re-routes, and each leaves by one exit. Half of the crowd are groups, half walk alone.
+    const std::vector<Vec2> places = grid(5, 15, 6, 3, 2.0);
+    const std::vector<Vec2> pairs(places.begin(), places.begin() + 10), alone(places.begin() + 10, places.end());
+    const Loaded l = load("close-groups.xml",
+                          fourExits("<ExitSet id=\"all\" exits=\"south north west east\" choice=\"quickest\" interval=\"2\"/>",
+                                    inGroups(agentsAt(pairs, "out"), 2) + agentsAt(alone, "out"),
+                                    "<CloseExit exit=\"north\" time=\"3\"/><CloseExit exit=\"east\" time=\"3\"/>", 200));
+    BOOST_REQUIRE_MESSAGE(l.spec, l.messages);
+    for (const int threads : {1, 2}) {
+        const Outcome o = runScenario(*l.spec, threads);
+        BOOST_TEST(o.left == 0u, threads << " threads: " << o.left << " left behind");
+        BOOST_REQUIRE(o.exitOf.size() == places.size());
+        for (const auto& [id, exit] : o.exitOf) BOOST_TEST((exit == "west" || exit == "south"), "agent " << id << " left by " << exit);
+        const auto groups = exitsByGroup(*l.spec, o);
+        BOOST_TEST(groups.size() == 5u);
+        for (const auto& [g, exits] : groups) BOOST_TEST(exits.size() == 1u, "group " << g << " left by " << exits.size() << " exits");
+    }
+}
+
 BOOST_AUTO_TEST_CASE(a_reopened_exit_is_taken_again) {
     // West closes at once and reopens at 2 s: the agents beside it leave by it after all.
     const std::vector<Vec2> places = grid(2, 8, 2, 2, 2.0);
@@ -636,6 +682,62 @@ BOOST_AUTO_TEST_CASE(one_and_two_threads_give_the_same_bits) {
     for (std::size_t f = 0; f < a.frames.size() && same; ++f) same = a.frames[f] == b.frames[f];
     BOOST_TEST(same);
     BOOST_TEST((a.timeOf == b.timeOf));
+}
+
+BOOST_AUTO_TEST_CASE(one_and_two_threads_give_the_same_bits_with_quickest_exits_groups_and_a_checkpoint) {
+    // Every part of an update at once: 160 people choosing the quickest of four exits (groups of
+    // three among them), 40 through a checkpoint first (pairs among them), 12 leaving by one exit,
+    // and two exits closing at 20 s. The lists an update gathers on each thread (choosers, queues,
+    // the serial part) must give what one thread gives, every step.
+    const std::string world =
+        "<World type=\"Planar\" xmin=\"-2\" xmax=\"22\" ymin=\"-2\" ymax=\"22\">\n<Navigation/>\n" + wall(0, 0, 9.4, 0) +
+        wall(10.6, 0, 20, 0) + wall(0, 20, 9.4, 20) + wall(10.6, 20, 20, 20) + wall(0, 0, 0, 9.4) + wall(0, 10.6, 0, 20) +
+        wall(20, 0, 20, 9.4) + wall(20, 10.6, 20, 20) +
+        "<Exit id=\"south\" xmin=\"9.4\" xmax=\"10.6\" ymin=\"-1\" ymax=\"-0.3\"/>\n"
+        "<Exit id=\"north\" xmin=\"9.4\" xmax=\"10.6\" ymin=\"20.3\" ymax=\"21\"/>\n"
+        "<Exit id=\"west\" xmin=\"-1\" xmax=\"-0.3\" ymin=\"9.4\" ymax=\"10.6\"/>\n"
+        "<Exit id=\"east\" xmin=\"20.3\" xmax=\"21\" ymin=\"9.4\" ymax=\"10.6\"/>\n"
+        "<Target id=\"desk\" xmin=\"9\" xmax=\"11\" ymin=\"3\" ymax=\"5\"/>\n"
+        "<ExitSet id=\"all\" exits=\"south north west east\" choice=\"quickest\" interval=\"2\"/>\n"
+        "<ExitSet id=\"two\" exits=\"south west\" choice=\"nearest\"/>\n"
+        "<Journey id=\"out\" leave_by=\"all\"/>\n"
+        "<Journey id=\"via\" leave_by=\"all\"><Waypoint target=\"desk\" dwell=\"1\" capacity=\"4\"/></Journey>\n"
+        "<Journey id=\"single\" leave_by=\"east\"/>\n</World>\n";
+    const std::vector<Vec2> crowd = grid(1.5, 7, 20, 8, 0.9), desk = grid(1.5, 1.5, 20, 2, 0.9), east = grid(15, 15, 4, 3, 0.9);
+    const std::vector<Vec2> crowdGroups(crowd.begin(), crowd.begin() + 90), crowdAlone(crowd.begin() + 90, crowd.end());
+    const std::vector<Vec2> deskPairs(desk.begin(), desk.begin() + 20), deskAlone(desk.begin() + 20, desk.end());
+    std::string deskPairsXml = inGroups(agentsAt(deskPairs, "via", 0.22), 2);
+    for (std::size_t at = 0; (at = deskPairsXml.find("group=\"g", at)) != std::string::npos; at += 8)
+        deskPairsXml.replace(at, 8, "group=\"d");  // other names than the crowd's groups
+    const std::string agents = inGroups(agentsAt(crowdGroups, "out", 0.22), 3) + agentsAt(crowdAlone, "out", 0.22) +
+                               deskPairsXml + agentsAt(deskAlone, "via", 0.22) + agentsAt(east, "single", 0.22);
+    const Loaded l = load("threads-venue.xml",
+                          simulation(world, agents, 60, "<Schedule><CloseExit exit=\"north\" time=\"20\"/><CloseExit exit=\"east\" time=\"20\"/></Schedule>\n"));
+    BOOST_REQUIRE_MESSAGE(l.spec, l.messages);
+    const Outcome a = runScenario(*l.spec, 1), b = runScenario(*l.spec, 2);
+    BOOST_REQUIRE(a.frames.size() == b.frames.size());
+    std::size_t firstDifferent = a.frames.size();
+    for (std::size_t f = 0; f < a.frames.size() && firstDifferent == a.frames.size(); ++f)
+        if (a.frames[f] != b.frames[f]) firstDifferent = f;
+    BOOST_TEST(firstDifferent == a.frames.size(), "positions differ from coarse step " << firstDifferent);
+    BOOST_TEST((a.timeOf == b.timeOf));
+    BOOST_TEST((a.exitOf == b.exitOf));
+    BOOST_REQUIRE(a.services.size() == b.services.size());
+    for (std::size_t k = 0; k < a.services.size(); ++k) {
+        BOOST_TEST(a.services[k].id == b.services[k].id);
+        BOOST_TEST(a.services[k].start == b.services[k].start);
+        BOOST_TEST(a.services[k].end == b.services[k].end);
+    }
+    // The scene does what it is for: services, a spread over the exits, and after the closing
+    // each group by one exit (a member through north or east before 20 s is not followed).
+    BOOST_TEST(a.services.size() >= 30u);
+    std::map<std::string, int> used;
+    for (const auto& [id, exit] : a.exitOf) ++used[exit];
+    BOOST_TEST(used.size() >= 3u);
+    BOOST_TEST(a.exitOf.size() >= 150u, a.exitOf.size() << " left");
+    const auto groups = exitsByGroup(*l.spec, a, 20);
+    BOOST_TEST(groups.size() >= 20u);
+    for (const auto& [g, exits] : groups) BOOST_TEST(exits.size() == 1u, "group " << g << " left by " << exits.size() << " exits");
 }
 
 // ---- bad input --------------------------------------------------------------------------------

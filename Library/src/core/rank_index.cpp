@@ -8,15 +8,22 @@
 namespace ch {
 
 void RankIndex::assign(const std::vector<double>& values) {
-    const std::size_t n = values.size();
+    const std::span<const double> whole(values);
+    assign(std::span<const std::span<const double>>(&whole, 1));
+}
+
+void RankIndex::assign(std::span<const std::span<const double>> parts) {
+    std::size_t n = 0;
+    for (const auto& part : parts) n += part.size();
     sorted_.resize(n);
     if (n == 0) return;
     double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-    for (const double x : values)
-        if (std::isfinite(x)) {
-            lo = std::min(lo, x);
-            hi = std::max(hi, x);
-        }
+    for (const auto& part : parts)
+        for (const double x : part)
+            if (std::isfinite(x)) {
+                lo = std::min(lo, x);
+                hi = std::max(hi, x);
+            }
     const std::size_t buckets = n;
     last_ = static_cast<double>(buckets - 1);
     lo_ = lo <= hi ? lo : 0;
@@ -25,15 +32,19 @@ void RankIndex::assign(const std::vector<double>& values) {
     // value put in place from its bucket's end down (start_[b] ends at the bucket's first place).
     start_.assign(buckets + 1, 0);
     bucketOf_.resize(n);
-    for (std::size_t i = 0; i < n; ++i) {
-        const std::size_t b = bucket(values[i]);
-        bucketOf_[i] = static_cast<std::uint32_t>(b);
-        ++start_[b];
-    }
+    std::size_t i = 0;
+    for (const auto& part : parts)
+        for (const double x : part) {
+            const std::size_t b = bucket(x);
+            bucketOf_[i++] = static_cast<std::uint32_t>(b);
+            ++start_[b];
+        }
     std::uint32_t end = 0;
     for (std::size_t b = 0; b < buckets; ++b) start_[b] = end += start_[b];
     start_[buckets] = static_cast<std::uint32_t>(n);
-    for (std::size_t i = 0; i < n; ++i) sorted_[--start_[bucketOf_[i]]] = values[i];
+    i = 0;
+    for (const auto& part : parts)
+        for (const double x : part) sorted_[--start_[bucketOf_[i++]]] = x;
     for (std::size_t b = 0; b < buckets; ++b)
         if (static_cast<std::ptrdiff_t>(start_[b + 1] - start_[b]) > kSmall)
             std::sort(sorted_.data() + start_[b], sorted_.data() + start_[b + 1]);

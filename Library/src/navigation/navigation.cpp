@@ -4,6 +4,8 @@
 #include "crowdhealth/core/parallel.h"
 #include "crowdhealth/core/rng.h"
 
+#include <omp.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -218,7 +220,7 @@ void Navigation::prefetchLanes(const WalkableGrid::Probe8& q, const int* target,
 
 void Navigation::directionsTo(const WalkableGrid::Probe8& q, const Vec2* pos, const int* target, unsigned lanes,
                               Vec2* dir, double* dist) const {
-    const DistanceField* fields[8];
+    const DistanceField* fields[8] = {};  // (only the lanes in `lanes` are read)
     for (unsigned m = lanes; m != 0; m &= m - 1) {
         const int l = __builtin_ctz(m);
         fields[l] = &fields_[static_cast<std::size_t>(target[l])];
@@ -255,7 +257,7 @@ void Navigation::activated(AgentStore& a, std::size_t i, const AgentSpec& s, dou
         a.stage[i] = 0;
         const JourneySpec& js = spec_.venue.journeys[static_cast<std::size_t>(j)];
         if (js.waypoints.empty()) {
-            chooseExit(a, i, time, spec_.seed);
+            chooseExit(a, i, time, spec_.seed, scratch_);
         } else {
             a.target[i] = stageTarget_[static_cast<std::size_t>(j)][0];
         }
@@ -413,8 +415,8 @@ bool Navigation::choosesNow(const AgentStore& a, std::size_t i, double t, bool c
     return changed || quickestJourney_[static_cast<std::size_t>(j)] != 0;
 }
 
-void Navigation::chooseExit(AgentStore& a, std::size_t i, double t, std::uint64_t seed, bool sampled,
-                            const double* paths) {
+void Navigation::chooseExit(AgentStore& a, std::size_t i, double t, std::uint64_t seed, ChoiceScratch& scratch,
+                            bool sampled, const double* paths) {
     const VenueSpec& venue = spec_.venue;
     const int j = a.journey[i];
     const int setIndex = exitSetOf_[static_cast<std::size_t>(j)];
@@ -426,8 +428,8 @@ void Navigation::chooseExit(AgentStore& a, std::size_t i, double t, std::uint64_
         set ? std::span<const int>(setExits_[static_cast<std::size_t>(setIndex)]) : std::span<const int>(single);
     const std::span<const double> weights =
         set ? std::span<const double>(setWeights_[static_cast<std::size_t>(setIndex)]) : std::span<const double>(one);
-    std::vector<int>& openOnes = openOnes_;
-    std::vector<double>& openWeights = openWeights_;
+    std::vector<int>& openOnes = scratch.openOnes;
+    std::vector<double>& openWeights = scratch.openWeights;
     openOnes.clear();
     openWeights.clear();
     for (std::size_t k = 0; k < candidates.size(); ++k)
@@ -574,142 +576,161 @@ void Navigation::update(AgentStore& a, double t, std::uint64_t seed) {
     // the work of the others. Probes and samples go eight agents at a time (probe8, sample8: in
     // AVX-512 lanes where the CPU runs it); the agents near walls, targets and the grid's edges,
     // which sample8 leaves, are sampled one by one.
+    // The same pass lists, per thread, what step 3 and the quickest rule need (issue 20: these
+    // were serial passes over everyone, a third of the quickest rule's cost on two threads):
+    //  * per exit, the remaining distances of the people heading there, indexed below for "how
+    //    many are nearer" (the quickest rule's only input; not gathered in venues without it);
+    //  * who chooses an exit in step 3 (a quickest choice due, or an exit opened or closed);
+    //  * who has step 3's serial work: agents before their last waypoint, and choosers in a group.
+    // Each thread's runs are one contiguous block (schedule(static)), so the lists joined in
+    // thread order are in agent order, whatever the number of threads.
     constexpr std::size_t kRun = 16;
     const std::size_t runs = (n + kRun - 1) / kRun;
-#pragma omp parallel for schedule(static) if (parallelCheapLoop(n))
-    for (std::ptrdiff_t rr = 0; rr < static_cast<std::ptrdiff_t>(runs); ++rr) {
-        const std::size_t begin = static_cast<std::size_t>(rr) * kRun, end = std::min(n, begin + kRun);
-        if (fields_.empty()) {
-            for (std::size_t i = begin; i < end; ++i)
-                if (a.target[i] >= 0) a.navDir[i] = directionTo(a.target[i], a.pos[i], a.navDistance[i]);
+    const bool team = parallelCheapLoop(n);
+    const std::size_t threads = team ? static_cast<std::size_t>(std::max(1, omp_get_max_threads())) : 1;
+    if (lists_.size() < threads) lists_.resize(threads);
+    for (ThreadLists& l : lists_) {
+        l.serial.clear();
+        l.choosers.clear();
+        l.queues.resize(quickest_ ? targets_.size() : 0);
+        for (auto& q : l.queues) q.clear();
+    }
+    if (quickest_) ranks_.resize(targets_.size());
+    const bool listChoosers = !fields_.empty() && choiceSlots_ > 0;
+    static const std::vector<int> kNoExits;
+#pragma omp parallel if (team)
+    {
+        ThreadLists& mine = lists_[static_cast<std::size_t>(omp_get_thread_num())];
+#pragma omp for schedule(static)
+        for (std::ptrdiff_t rr = 0; rr < static_cast<std::ptrdiff_t>(runs); ++rr) {
+            const std::size_t begin = static_cast<std::size_t>(rr) * kRun, end = std::min(n, begin + kRun);
+            if (fields_.empty()) {
+                for (std::size_t i = begin; i < end; ++i)
+                    if (a.target[i] >= 0) a.navDir[i] = directionTo(a.target[i], a.pos[i], a.navDistance[i]);
+            } else {
+                WalkableGrid::Probe8 probes[kRun / 8];
+                unsigned lanes[kRun / 8] = {};
+                for (std::size_t g = 0; g < kRun / 8 && begin + 8 * g < end; ++g) {
+                    const std::size_t lo = begin + 8 * g, count = std::min<std::size_t>(8, end - lo);
+                    grid_->probe8(&a.pos[lo], static_cast<int>(count), probes[g]);
+                    for (std::size_t l = 0; l < count; ++l)
+                        if (a.target[lo + l] >= 0) lanes[g] |= 1u << l;
+                    prefetchLanes(probes[g], &a.target[lo], lanes[g]);
+                }
+                for (std::size_t g = 0; g < kRun / 8 && begin + 8 * g < end; ++g) {
+                    const std::size_t lo = begin + 8 * g;
+                    Vec2 dirs[8];
+                    double dists[8];
+                    directionsTo(probes[g], &a.pos[lo], &a.target[lo], lanes[g], dirs, dists);
+                    for (unsigned m = lanes[g]; m != 0; m &= m - 1) {
+                        const int l = __builtin_ctz(m);
+                        a.navDir[lo + static_cast<std::size_t>(l)] = dirs[l];
+                        a.navDistance[lo + static_cast<std::size_t>(l)] = dists[l];
+                    }
+                }
+            }
+            for (std::size_t i = begin; i < end; ++i) {
+                if (a.journey[i] < 0) continue;
+                if (!leaving(a, i)) {
+                    mine.serial.push_back(i);
+                    continue;
+                }
+                if (quickest_ && a.target[i] >= 0) mine.queues[static_cast<std::size_t>(a.target[i])].push_back(a.navDistance[i]);
+                if (choosesNow(a, i, t, changed)) {
+                    mine.choosers.push_back(i);
+                    if (sharesGroupExit(a, i)) mine.serial.push_back(i);
+                }
+            }
+        }
+        // (the implicit barrier: every list is complete)
+#pragma omp single
+        {
+            serial_.clear();
+            choosers_.clear();
+            for (std::size_t k = 0; k < threads; ++k) {
+                serial_.insert(serial_.end(), lists_[k].serial.begin(), lists_[k].serial.end());
+                choosers_.insert(choosers_.end(), lists_[k].choosers.begin(), lists_[k].choosers.end());
+            }
+            // (OpenMP leaves the blocks' order to the runtime; every known one keeps it.)
+            if (!std::is_sorted(serial_.begin(), serial_.end())) std::sort(serial_.begin(), serial_.end());
+            if (!std::is_sorted(choosers_.begin(), choosers_.end())) std::sort(choosers_.begin(), choosers_.end());
+            choicePaths_.assign(listChoosers ? choosers_.size() * choiceSlots_ : 0,
+                                std::numeric_limits<double>::quiet_NaN());  // not sampled: unknown
+            if (quickest_) {
+                rankParts_.resize(targets_.size());
+                for (std::size_t e = 0; e < targets_.size(); ++e) {
+                    rankParts_[e].clear();
+                    for (std::size_t k = 0; k < threads; ++k) rankParts_[e].emplace_back(lists_[k].queues[e]);
+                }
+            }
+        }
+        // Each exit's index of distances, exits shared among the threads.
+        if (quickest_) {
+#pragma omp for schedule(dynamic, 1)
+            for (std::ptrdiff_t e = 0; e < static_cast<std::ptrdiff_t>(targets_.size()); ++e)
+                ranks_[static_cast<std::size_t>(e)].assign(rankParts_[static_cast<std::size_t>(e)]);
+        }
+        // The paths to the choosers' other exits, eight choosers at a time (probe8 and
+        // directionsTo, as in 2): slot k of a chooser's row is its set's k-th exit, sampled when
+        // open and not its target already.
+        if (listChoosers) {
+#pragma omp for schedule(static)
+            for (std::ptrdiff_t gg = 0; gg < static_cast<std::ptrdiff_t>((choosers_.size() + 7) / 8); ++gg) {
+                const std::size_t lo = static_cast<std::size_t>(gg) * 8;
+                const int count = static_cast<int>(std::min<std::size_t>(8, choosers_.size() - lo));
+                Vec2 pos[8];
+                const std::vector<int>* exits[8];
+                for (int l = 0; l < count; ++l) {
+                    const std::size_t i = choosers_[lo + static_cast<std::size_t>(l)];
+                    const int set = exitSetOf_[static_cast<std::size_t>(a.journey[i])];
+                    pos[l] = a.pos[i];
+                    exits[l] = set >= 0 ? &setExits_[static_cast<std::size_t>(set)] : &kNoExits;
+                }
+                WalkableGrid::Probe8 q;
+                grid_->probe8(pos, count, q);
+                for (std::size_t k = 0; k < choiceSlots_; ++k) {
+                    int exit[8];
+                    unsigned lanes = 0;
+                    for (int l = 0; l < count; ++l) {
+                        if (k >= exits[l]->size()) continue;
+                        exit[l] = (*exits[l])[k];
+                        if (exit[l] != a.target[choosers_[lo + static_cast<std::size_t>(l)]] && open_[static_cast<std::size_t>(exit[l])])
+                            lanes |= 1u << l;
+                    }
+                    if (lanes == 0) continue;
+                    prefetchLanes(q, exit, lanes);
+                    Vec2 dirs[8];
+                    double dists[8];
+                    directionsTo(q, pos, exit, lanes, dirs, dists);
+                    for (unsigned m = lanes; m != 0; m &= m - 1) {
+                        const int l = __builtin_ctz(m);
+                        choicePaths_[(lo + static_cast<std::size_t>(l)) * choiceSlots_ + k] = dists[l];
+                    }
+                }
+            }
+        }
+        // 3a. Exit choices outside social groups: each reads the indexes and its own row and
+        // writes its own slots only, so they run on the team (those in groups are in serial_).
+#pragma omp for schedule(static)
+        for (std::ptrdiff_t mm = 0; mm < static_cast<std::ptrdiff_t>(choosers_.size()); ++mm) {
+            const std::size_t m = static_cast<std::size_t>(mm), i = choosers_[m];
+            if (!sharesGroupExit(a, i))
+                chooseExit(a, i, t, seed, mine.scratch, true, listChoosers ? &choicePaths_[m * choiceSlots_] : nullptr);
+        }
+    }
+
+    // 3b. Dwell ends, arrivals and exit choices in social groups: serial, in agent order (services
+    // are recorded in that order, and a group's first choice binds the others). Agent i's step
+    // changes its own slots only, so it is still listed as in 2.
+    for (const std::size_t i : serial_) {
+        if (!leaving(a, i)) {
+            serveWaypoint(a, i, t, seed);
             continue;
         }
-        WalkableGrid::Probe8 probes[kRun / 8];
-        unsigned lanes[kRun / 8] = {};
-        for (std::size_t g = 0; g < kRun / 8 && begin + 8 * g < end; ++g) {
-            const std::size_t lo = begin + 8 * g, count = std::min<std::size_t>(8, end - lo);
-            grid_->probe8(&a.pos[lo], static_cast<int>(count), probes[g]);
-            for (std::size_t l = 0; l < count; ++l)
-                if (a.target[lo + l] >= 0) lanes[g] |= 1u << l;
-            prefetchLanes(probes[g], &a.target[lo], lanes[g]);
-        }
-        for (std::size_t g = 0; g < kRun / 8 && begin + 8 * g < end; ++g) {
-            const std::size_t lo = begin + 8 * g;
-            Vec2 dirs[8];
-            double dists[8];
-            directionsTo(probes[g], &a.pos[lo], &a.target[lo], lanes[g], dirs, dists);
-            for (unsigned m = lanes[g]; m != 0; m &= m - 1) {
-                const int l = __builtin_ctz(m);
-                a.navDir[lo + static_cast<std::size_t>(l)] = dirs[l];
-                a.navDistance[lo + static_cast<std::size_t>(l)] = dists[l];
-            }
-        }
-    }
-
-    // Per exit: the remaining distances of the people heading there, indexed for "how many are
-    // nearer" (the quickest rule's only input; not gathered in venues without it). Storage is kept
-    // from step to step. The same pass lists who chooses an exit of a set in step 3 (a quickest
-    // choice due, or an exit opened or closed) and the paths to their sets' other open exits are
-    // sampled for them here, fetched ahead in runs as in 2, instead of one by one in step 3.
-    choosers_.clear();
-    const bool listChoosers = !fields_.empty() && choiceSlots_ > 0;
-    if (quickest_ || changed) {
-        if (quickest_) {
-            queues_.resize(targets_.size());
-            ranks_.resize(targets_.size());
-            for (auto& q : queues_) q.clear();
-        }
-        for (std::size_t i = 0; i < n; ++i) {
-            const int j = a.journey[i];
-            if (j < 0 || !leaving(a, i)) continue;
-            if (quickest_ && a.target[i] >= 0) queues_[static_cast<std::size_t>(a.target[i])].push_back(a.navDistance[i]);
-            if (listChoosers && exitSetOf_[static_cast<std::size_t>(j)] >= 0 && choosesNow(a, i, t, changed)) choosers_.push_back(i);
-        }
-        if (quickest_)
-            for (std::size_t e = 0; e < queues_.size(); ++e) ranks_[e].assign(queues_[e]);
-        choicePaths_.resize(choosers_.size() * choiceSlots_);
-        std::fill(choicePaths_.begin(), choicePaths_.end(), std::numeric_limits<double>::quiet_NaN());  // not sampled: unknown
-        // Eight choosers at a time (probe8 and directionsTo, as in 2): slot k of a chooser's row is
-        // its set's k-th exit, sampled when open and not its target already.
-        for (std::size_t lo = 0; lo < choosers_.size(); lo += 8) {
-            const int count = static_cast<int>(std::min<std::size_t>(8, choosers_.size() - lo));
-            Vec2 pos[8];
-            const std::vector<int>* exits[8];
-            for (int l = 0; l < count; ++l) {
-                const std::size_t i = choosers_[lo + static_cast<std::size_t>(l)];
-                pos[l] = a.pos[i];
-                exits[l] = &setExits_[static_cast<std::size_t>(exitSetOf_[static_cast<std::size_t>(a.journey[i])])];
-            }
-            WalkableGrid::Probe8 q;
-            grid_->probe8(pos, count, q);
-            for (std::size_t k = 0; k < choiceSlots_; ++k) {
-                int exit[8];
-                unsigned lanes = 0;
-                for (int l = 0; l < count; ++l) {
-                    if (k >= exits[l]->size()) continue;
-                    exit[l] = (*exits[l])[k];
-                    if (exit[l] != a.target[choosers_[lo + static_cast<std::size_t>(l)]] && open_[static_cast<std::size_t>(exit[l])])
-                        lanes |= 1u << l;
-                }
-                if (lanes == 0) continue;
-                prefetchLanes(q, exit, lanes);
-                Vec2 dirs[8];
-                double dists[8];
-                directionsTo(q, pos, exit, lanes, dirs, dists);
-                for (unsigned m = lanes; m != 0; m &= m - 1) {
-                    const int l = __builtin_ctz(m);
-                    choicePaths_[(lo + static_cast<std::size_t>(l)) * choiceSlots_ + k] = dists[l];
-                }
-            }
-        }
-    }
-
-    // 3. Dwell ends, arrivals, exit choices (serial, in agent order, on the state of 2).
-    std::size_t nextChooser = 0;
-    for (std::size_t i = 0; i < n; ++i) {
-        const int j = a.journey[i];
-        if (j < 0) continue;
-        const JourneySpec& js = venue.journeys[static_cast<std::size_t>(j)];
-        const std::size_t stages = js.waypoints.size();
-        const std::size_t s = static_cast<std::size_t>(a.stage[i]);
-        if (s < stages) {
-            const WaypointSpec& w = js.waypoints[s];
-            Target& target = targets_[static_cast<std::size_t>(a.target[i])];
-            if (a.navFlags[i] & kInService) {
-                if (t + 1e-9 >= a.holdUntil[i]) {
-                    for (auto it = services_.rbegin(); it != services_.rend(); ++it)
-                        if (it->id == a.id[i] && it->end < 0) {
-                            it->end = t;
-                            break;
-                        }
-                    a.navFlags[i] = 0;
-                    advance(a, i, t, seed);
-                }
-                continue;
-            }
-            const bool inside = target.shape.kind == TargetShape::Kind::Point
-                                    ? (a.pos[i] - target.shape.point).norm() <= std::max(target.shape.radius, a.goalRadius[i])
-                                    : target.contains(a.pos[i]);
-            if (!inside) continue;
-            if (target.capacity > 0 && !(a.navFlags[i] & kAdmitted)) continue;  // waits to be admitted
-            if (w.dwell > 0 || target.capacity > 0) {
-                a.navFlags[i] = static_cast<unsigned char>(a.navFlags[i] | kInService);
-                a.holdUntil[i] = std::max(a.holdUntil[i], t + w.dwell);
-                services_.push_back(Service{a.id[i], j, static_cast<int>(s), t, -1.0});
-                if (w.dwell <= 0) {  // a capacity without dwell: through one at a time, no stop
-                    services_.back().end = t;
-                    a.navFlags[i] = 0;
-                    advance(a, i, t, seed);
-                }
-            } else {
-                advance(a, i, t, seed);
-            }
-        } else if (choosesNow(a, i, t, changed)) {
-            // Step 2 sampled its current target (-1: none), and the pass after it the other exits
-            // of its set (choosers_ is in agent order).
-            const bool listed = nextChooser < choosers_.size() && choosers_[nextChooser] == i;
-            chooseExit(a, i, t, seed, true, listed ? &choicePaths_[nextChooser++ * choiceSlots_] : nullptr);
-        }
+        // Step 2 sampled its current target (-1: none), and the pass after it the other exits
+        // of its set.
+        const std::size_t m = static_cast<std::size_t>(std::lower_bound(choosers_.begin(), choosers_.end(), i) - choosers_.begin());
+        chooseExit(a, i, t, seed, scratch_, true, listChoosers ? &choicePaths_[m * choiceSlots_] : nullptr);
     }
 
     // Checkpoints with a capacity admit their free places to the nearest waiting people.
@@ -731,6 +752,43 @@ void Navigation::update(AgentStore& a, double t, std::uint64_t seed) {
     }
 }
 
+void Navigation::serveWaypoint(AgentStore& a, std::size_t i, double t, std::uint64_t seed) {
+    const int j = a.journey[i];
+    const JourneySpec& js = spec_.venue.journeys[static_cast<std::size_t>(j)];
+    const std::size_t s = static_cast<std::size_t>(a.stage[i]);
+    const WaypointSpec& w = js.waypoints[s];
+    Target& target = targets_[static_cast<std::size_t>(a.target[i])];
+    if (a.navFlags[i] & kInService) {
+        if (t + 1e-9 >= a.holdUntil[i]) {
+            for (auto it = services_.rbegin(); it != services_.rend(); ++it)
+                if (it->id == a.id[i] && it->end < 0) {
+                    it->end = t;
+                    break;
+                }
+            a.navFlags[i] = 0;
+            advance(a, i, t, seed);
+        }
+        return;
+    }
+    const bool inside = target.shape.kind == TargetShape::Kind::Point
+                            ? (a.pos[i] - target.shape.point).norm() <= std::max(target.shape.radius, a.goalRadius[i])
+                            : target.contains(a.pos[i]);
+    if (!inside) return;
+    if (target.capacity > 0 && !(a.navFlags[i] & kAdmitted)) return;  // waits to be admitted
+    if (w.dwell > 0 || target.capacity > 0) {
+        a.navFlags[i] = static_cast<unsigned char>(a.navFlags[i] | kInService);
+        a.holdUntil[i] = std::max(a.holdUntil[i], t + w.dwell);
+        services_.push_back(Service{a.id[i], j, static_cast<int>(s), t, -1.0});
+        if (w.dwell <= 0) {  // a capacity without dwell: through one at a time, no stop
+            services_.back().end = t;
+            a.navFlags[i] = 0;
+            advance(a, i, t, seed);
+        }
+    } else {
+        advance(a, i, t, seed);
+    }
+}
+
 void Navigation::advance(AgentStore& a, std::size_t i, double t, std::uint64_t seed) {
     const JourneySpec& js = spec_.venue.journeys[static_cast<std::size_t>(a.journey[i])];
     const std::size_t next = static_cast<std::size_t>(a.stage[i]) + 1;
@@ -741,7 +799,7 @@ void Navigation::advance(AgentStore& a, std::size_t i, double t, std::uint64_t s
     } else if (!js.leaveBy.empty()) {
         a.stage[i] = static_cast<int>(next);
         a.target[i] = -1;
-        chooseExit(a, i, t, seed);
+        chooseExit(a, i, t, seed, scratch_);
     } else {
         // No exit: the agent stays at its last waypoint (stage stays there, in place, done).
         a.navFlags[i] = static_cast<unsigned char>(a.navFlags[i] | kDone);

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <span>
 #include <vector>
 
 namespace ch {
@@ -23,6 +24,9 @@ class RankIndex {
 public:
     /// Replaces the set by `values` (any order). Storage is kept from call to call.
     void assign(const std::vector<double>& values);
+    /// Replaces the set by the values of every part together (parts gathered apart, e.g. one per
+    /// thread): the same counts as assign() of their concatenation, in any order of the parts.
+    void assign(std::span<const std::span<const double>> parts);
     /// Number of values v with v < x.
     std::size_t countBelow(double x) const {
         if (sorted_.empty() || !(x == x)) return 0;

@@ -28,6 +28,7 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <span>
 #include <utility>
 #include <vector>
 
@@ -123,15 +124,31 @@ private:
     std::vector<int> setFixed_;                  ///< per exit set: the target of its fixed exit (-1 none)
     std::vector<std::vector<int>> stageTarget_;  ///< per journey: each waypoint's target
     std::vector<int> eventTarget_;               ///< per exit event: the exit's target
-    std::vector<int> openOnes_;                  ///< chooseExit's scratch: the open candidates
-    std::vector<double> openWeights_;            ///< and their weights
+    /// chooseExit's scratch: the open candidates and their weights (one per thread that chooses).
+    struct ChoiceScratch {
+        std::vector<int> openOnes;
+        std::vector<double> openWeights;
+    };
+    ChoiceScratch scratch_;  ///< for the choices made on one thread (activation, advance, step 3's serial part)
+    /// One thread's share of update()'s lists, from the runs of agents it sampled (in agent order).
+    struct ThreadLists {
+        std::vector<std::size_t> serial;    ///< agents before their last waypoint, and choosers in a social group
+        std::vector<std::size_t> choosers;  ///< every agent choosing an exit in this update
+        std::vector<std::vector<double>> queues;  ///< per target: remaining distances of those heading there
+        ChoiceScratch scratch;
+    };
+    std::vector<ThreadLists> lists_;
     std::vector<Service> services_;
-    std::vector<std::vector<double>> queues_;  ///< per target: distances of those heading there
-    std::vector<RankIndex> ranks_;             ///< per target: queues_ indexed (who is nearer)
-    bool quickest_ = false;                    ///< some exit set chooses by the quickest rule
-    /// The agents who choose an exit of a set in this update's step 3, in agent order, and the
-    /// path lengths to their sets' exits, sampled before step 3: chooser m's row of choiceSlots_
-    /// holds the path to its set's k-th exit (NaN where not sampled: closed, or its current target).
+    std::vector<RankIndex> ranks_;  ///< per target: the distances of the people heading there (who is nearer)
+    std::vector<std::vector<std::span<const double>>> rankParts_;  ///< per target: its queues, thread by thread
+    bool quickest_ = false;         ///< some exit set chooses by the quickest rule
+    /// Step 3's serial part in agent order: agents before their last waypoint (their services
+    /// are recorded in order) and choosers in a social group (the group's first choice binds the
+    /// others). Choosers outside groups choose independently, on the team.
+    std::vector<std::size_t> serial_;
+    /// The agents who choose an exit in this update's step 3, in agent order, and the path lengths
+    /// to their sets' exits, sampled before step 3: chooser m's row of choiceSlots_ holds the path
+    /// to its set's k-th exit (NaN where not sampled: closed, no set, or its current target).
     std::vector<std::size_t> choosers_;
     std::vector<double> choicePaths_;
     std::size_t choiceSlots_ = 0;  ///< the most exits of one exit set
@@ -168,8 +185,16 @@ private:
     /// `sampled`: a.navDir[i] and a.navDistance[i] already hold directionTo(a.target[i], a.pos[i])
     /// (update's step 2), which the choice then reads instead of sampling the field again; `paths`:
     /// i's row of choicePaths_ (null: none), read the same way.
-    void chooseExit(AgentStore& a, std::size_t i, double t, std::uint64_t seed, bool sampled = false,
-                    const double* paths = nullptr);
+    /// `scratch`: the calling thread's own. Without a social group (sharesGroupExit false), a
+    /// choice reads and writes agent i's slots only, so choices of different agents may run at once.
+    void chooseExit(AgentStore& a, std::size_t i, double t, std::uint64_t seed, ChoiceScratch& scratch,
+                    bool sampled = false, const double* paths = nullptr);
+    /// True when agent i's exit choice follows, or sets, its social group's shared exit.
+    bool sharesGroupExit(const AgentStore& a, std::size_t i) const {
+        return a.group[i] >= 0 && static_cast<std::size_t>(a.group[i]) < groupExit_.size();
+    }
+    /// Step 3 for an agent before its last waypoint: dwell ends, arrival, admission to service.
+    void serveWaypoint(AgentStore& a, std::size_t i, double t, std::uint64_t seed);
     /// True when update's step 3 has agent i choose its exit: i is leaving by an exit or an exit
     /// set, and an exit opened or closed in this update (`changed`) or its quickest choice is due.
     bool choosesNow(const AgentStore& a, std::size_t i, double t, bool changed) const;
