@@ -593,7 +593,7 @@ void Navigation::update(AgentStore& a, double t, std::uint64_t seed) {
         l.serial.clear();
         l.choosers.clear();
         l.queues.resize(quickest_ ? targets_.size() : 0);
-        for (auto& q : l.queues) q.clear();
+        for (Queue& q : l.queues) q.values.clear();
     }
     if (quickest_) ranks_.resize(targets_.size());
     const bool listChoosers = !fields_.empty() && choiceSlots_ > 0;
@@ -635,7 +635,7 @@ void Navigation::update(AgentStore& a, double t, std::uint64_t seed) {
                     mine.serial.push_back(i);
                     continue;
                 }
-                if (quickest_ && a.target[i] >= 0) mine.queues[static_cast<std::size_t>(a.target[i])].push_back(a.navDistance[i]);
+                if (quickest_ && a.target[i] >= 0) mine.queues[static_cast<std::size_t>(a.target[i])].values.push_back(a.navDistance[i]);
                 if (choosesNow(a, i, t, changed)) {
                     mine.choosers.push_back(i);
                     if (sharesGroupExit(a, i)) mine.serial.push_back(i);
@@ -660,7 +660,7 @@ void Navigation::update(AgentStore& a, double t, std::uint64_t seed) {
                 rankParts_.resize(targets_.size());
                 for (std::size_t e = 0; e < targets_.size(); ++e) {
                     rankParts_[e].clear();
-                    for (std::size_t k = 0; k < threads; ++k) rankParts_[e].emplace_back(lists_[k].queues[e]);
+                    for (std::size_t k = 0; k < threads; ++k) rankParts_[e].emplace_back(lists_[k].queues[e].values);
                 }
             }
         }

@@ -130,11 +130,16 @@ private:
         std::vector<double> openWeights;
     };
     ChoiceScratch scratch_;  ///< for the choices made on one thread (activation, advance, step 3's serial part)
+    /// Per target: the remaining distances of those heading there. A cache line of its own, as
+    /// each ThreadLists is: the threads append to their lists at once (a shared line would bounce).
+    struct alignas(64) Queue {
+        std::vector<double> values;
+    };
     /// One thread's share of update()'s lists, from the runs of agents it sampled (in agent order).
-    struct ThreadLists {
+    struct alignas(64) ThreadLists {
         std::vector<std::size_t> serial;    ///< agents before their last waypoint, and choosers in a social group
         std::vector<std::size_t> choosers;  ///< every agent choosing an exit in this update
-        std::vector<std::vector<double>> queues;  ///< per target: remaining distances of those heading there
+        std::vector<Queue> queues;          ///< per target
         ChoiceScratch scratch;
     };
     std::vector<ThreadLists> lists_;
