@@ -93,7 +93,7 @@ def test_metrics_csv_byte_identical_to_the_program(tmp_path):
     # metrics() holds the same numbers as the file, column by column
     m = sim.metrics()
     assert list(m)[:len(crowdhealth.metrics_columns)] == crowdhealth.metrics_columns
-    lines = (prog / "metrics.csv").read_text().splitlines()
+    lines = (prog / "metrics.csv").read_text(encoding="utf-8").splitlines()
     assert lines[0].split(",") == list(m)
     assert len(m["time"]) == len(lines) - 1
     last = lines[-1].split(",")
@@ -274,12 +274,12 @@ def test_panic_safety_and_measurement_in_code_equal_the_xml_file(tmp_path):
     a = crowdhealth.Simulation(path)
     b = crowdhealth.Simulation(crossing_measured_in_code())
     run_alike(tmp_path, a, b, ["metrics.csv", "health.csv", "heatmap.csv", "flows.csv", "areas.csv"])
-    flows = (tmp_path / "b" / "flows.csv").read_text()
-    assert "middle" in flows and "west" in (tmp_path / "b" / "areas.csv").read_text()
-    heat = (tmp_path / "b" / "heatmap.csv").read_text().splitlines()
+    flows = (tmp_path / "b" / "flows.csv").read_text(encoding="utf-8")
+    assert "middle" in flows and "west" in (tmp_path / "b" / "areas.csv").read_text(encoding="utf-8")
+    heat = (tmp_path / "b" / "heatmap.csv").read_text(encoding="utf-8").splitlines()
     assert heat[1].split(",")[0] in ("-0.25", "0.25", "0.75")  # half-metre cells: centres at odd quarters
     # the panic event reached someone (the layer records a peak panic)
-    health = (tmp_path / "b" / "health.csv").read_text().splitlines()
+    health = (tmp_path / "b" / "health.csv").read_text(encoding="utf-8").splitlines()
     col = health[0].split(",").index("peak_panic")
     assert max(float(r.split(",")[col]) for r in health[1:]) >= 0.8
     # and without the three, the run differs (the builder does write them)
@@ -388,7 +388,7 @@ def test_venue_in_code_equals_the_xml_file(tmp_path):
     run_alike(tmp_path, a, b, ["metrics.csv", "health.csv", "evacuations.csv"])
     # People left by both exits, through the desk's journey and from the source; the one at the
     # kiosk stays.
-    rows = (tmp_path / "b" / "evacuations.csv").read_text().splitlines()
+    rows = (tmp_path / "b" / "evacuations.csv").read_text(encoding="utf-8").splitlines()
     assert b.evacuated >= 15 and b.agent_count >= 1
     assert any(",south" in r for r in rows[1:]) and any(",north" in r for r in rows[1:])
     # and the program runs the builder's file to the same evacuations
@@ -496,9 +496,9 @@ def test_a_drawing_in_code_equals_the_xml_file(tmp_path):
     assert a.agent_count == b.agent_count == 20
     assert locale.setlocale(locale.LC_ALL) == before  # reading the drawing left Python's locale alone
     run_alike(tmp_path, a, b, ["metrics.csv", "health.csv", "evacuations.csv", "flows.csv", "areas.csv"])
-    flows = (tmp_path / "b" / "flows.csv").read_text()
+    flows = (tmp_path / "b" / "flows.csv").read_text(encoding="utf-8")
     assert "DOOR-1" in flows and "SECURITY" in flows  # lines from the drawing's layer and from code
-    assert "FRONT-1" in (tmp_path / "b" / "areas.csv").read_text()
+    assert "FRONT-1" in (tmp_path / "b" / "areas.csv").read_text(encoding="utf-8")
     assert b.evacuated > 0
     # The layers as a list of tuples say the same; a relative path is taken from the current directory.
     layers = [("EXITS", "exit", "EXIT"), ("GATES", "target"), ("COUNT", "line", "DOOR"), ("ZONES", "area", "FRONT"),
@@ -621,10 +621,10 @@ def test_verdict_and_outputs_match_summary_json(tmp_path):
     v = sim.verdict()
     assert v["level"] in ("safe", "caution", "dangerous", "critical") and isinstance(v["reasons"], list)
     sim.write_outputs(str(tmp_path / "out"))
-    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text(encoding="utf-8"))
     assert summary["verdict"] == v
     prog = run_program(ROOM, tmp_path / "prog", "--seed", "1")
-    assert json.loads((prog / "summary.json").read_text())["verdict"] == v
+    assert json.loads((prog / "summary.json").read_text(encoding="utf-8"))["verdict"] == v
     with pytest.raises(RuntimeError, match="ended"):
         sim.step()
     # the program's folder rules: a folder with someone else's file is refused
@@ -688,7 +688,7 @@ def test_the_docs_builder_example_loads_and_runs(tmp_path):
     for name in ["metrics.csv", "heatmap.csv", "flows.csv", "areas.csv"]:
         assert (tmp_path / "out" / name).exists(), name
     # everyone walks east through the line "middle" (forward: towards its right-hand side, east)
-    rows = [r.split(",") for r in (tmp_path / "out" / "flows.csv").read_text().splitlines()[1:]]
+    rows = [r.split(",") for r in (tmp_path / "out" / "flows.csv").read_text(encoding="utf-8").splitlines()[1:]]
     assert sum(int(r[3]) for r in rows if r[1] == "middle") == 3
     assert sum(int(r[4]) for r in rows if r[1] == "middle") == 0
 
@@ -698,7 +698,7 @@ def test_the_docs_venue_example_loads_and_runs(tmp_path):
     assert sim.agent_count == 21 and sim.pending > 0  # the grid's 20 and the source's first arrival
     sim.run()
     sim.write_outputs(str(tmp_path / "out"))
-    rows = (tmp_path / "out" / "evacuations.csv").read_text().splitlines()[1:]
+    rows = (tmp_path / "out" / "evacuations.csv").read_text(encoding="utf-8").splitlines()[1:]
     assert sim.evacuated == len(rows) == 35 and sim.agent_count == 0  # the grid's 20 and 15 arrivals, all out
     assert any(",south" in r for r in rows) and any(",north" in r for r in rows)
 
