@@ -596,6 +596,8 @@ void Navigation::update(AgentStore& a, double t, std::uint64_t seed) {
         for (Queue& q : l.queues) q.values.clear();
     }
     if (quickest_) ranks_.resize(targets_.size());
+    serial_.clear();
+    choosers_.clear();
     const bool listChoosers = !fields_.empty() && choiceSlots_ > 0;
     static const std::vector<int> kNoExits;
 #pragma omp parallel if (team)
@@ -642,25 +644,30 @@ void Navigation::update(AgentStore& a, double t, std::uint64_t seed) {
                 }
             }
         }
-        // (the implicit barrier: every list is complete)
+        // (the implicit barrier: every list is complete, and every thread sees the same lists)
+        // Nobody listed and no queues to index (no journeys, or no choice due, as in a venue
+        // without the quickest rule most of the time): nothing more to do on the team.
+        std::size_t listed = 0;
+        for (std::size_t k = 0; k < threads; ++k) listed += lists_[k].serial.size() + lists_[k].choosers.size();
+        const bool more = quickest_ || listed > 0;  // (the quickest rule indexes its queues every update, empty or not)
+        if (more) {
 #pragma omp single
-        {
-            serial_.clear();
-            choosers_.clear();
-            for (std::size_t k = 0; k < threads; ++k) {
-                serial_.insert(serial_.end(), lists_[k].serial.begin(), lists_[k].serial.end());
-                choosers_.insert(choosers_.end(), lists_[k].choosers.begin(), lists_[k].choosers.end());
-            }
-            // (OpenMP leaves the blocks' order to the runtime; every known one keeps it.)
-            if (!std::is_sorted(serial_.begin(), serial_.end())) std::sort(serial_.begin(), serial_.end());
-            if (!std::is_sorted(choosers_.begin(), choosers_.end())) std::sort(choosers_.begin(), choosers_.end());
-            choicePaths_.assign(listChoosers ? choosers_.size() * choiceSlots_ : 0,
-                                std::numeric_limits<double>::quiet_NaN());  // not sampled: unknown
-            if (quickest_) {
-                rankParts_.resize(targets_.size());
-                for (std::size_t e = 0; e < targets_.size(); ++e) {
-                    rankParts_[e].clear();
-                    for (std::size_t k = 0; k < threads; ++k) rankParts_[e].emplace_back(lists_[k].queues[e].values);
+            {
+                for (std::size_t k = 0; k < threads; ++k) {
+                    serial_.insert(serial_.end(), lists_[k].serial.begin(), lists_[k].serial.end());
+                    choosers_.insert(choosers_.end(), lists_[k].choosers.begin(), lists_[k].choosers.end());
+                }
+                // (OpenMP leaves the blocks' order to the runtime; every known one keeps it.)
+                if (!std::is_sorted(serial_.begin(), serial_.end())) std::sort(serial_.begin(), serial_.end());
+                if (!std::is_sorted(choosers_.begin(), choosers_.end())) std::sort(choosers_.begin(), choosers_.end());
+                choicePaths_.assign(listChoosers ? choosers_.size() * choiceSlots_ : 0,
+                                    std::numeric_limits<double>::quiet_NaN());  // not sampled: unknown
+                if (quickest_) {
+                    rankParts_.resize(targets_.size());
+                    for (std::size_t e = 0; e < targets_.size(); ++e) {
+                        rankParts_[e].clear();
+                        for (std::size_t k = 0; k < threads; ++k) rankParts_[e].emplace_back(lists_[k].queues[e].values);
+                    }
                 }
             }
         }
@@ -673,7 +680,7 @@ void Navigation::update(AgentStore& a, double t, std::uint64_t seed) {
         // The paths to the choosers' other exits, eight choosers at a time (probe8 and
         // directionsTo, as in 2): slot k of a chooser's row is its set's k-th exit, sampled when
         // open and not its target already.
-        if (listChoosers) {
+        if (listChoosers && more) {
 #pragma omp for schedule(static)
             for (std::ptrdiff_t gg = 0; gg < static_cast<std::ptrdiff_t>((choosers_.size() + 7) / 8); ++gg) {
                 const std::size_t lo = static_cast<std::size_t>(gg) * 8;
@@ -711,6 +718,7 @@ void Navigation::update(AgentStore& a, double t, std::uint64_t seed) {
         }
         // 3a. Exit choices outside social groups: each reads the indexes and its own row and
         // writes its own slots only, so they run on the team (those in groups are in serial_).
+        if (more)
 #pragma omp for schedule(static)
         for (std::ptrdiff_t mm = 0; mm < static_cast<std::ptrdiff_t>(choosers_.size()); ++mm) {
             const std::size_t m = static_cast<std::size_t>(mm), i = choosers_[m];
