@@ -577,7 +577,8 @@ void Navigation::update(AgentStore& a, double t, std::uint64_t seed) {
     // AVX-512 lanes where the CPU runs it); the agents near walls, targets and the grid's edges,
     // which sample8 leaves, are sampled one by one.
     // The same pass lists, per thread, what step 3 and the quickest rule need (issue 20: these
-    // were serial passes over everyone, a third of the quickest rule's cost on two threads):
+    // were serial passes over everyone, about half of the quickest rule's navigation time on
+    // two threads):
     //  * per exit, the remaining distances of the people heading there, indexed below for "how
     //    many are nearer" (the quickest rule's only input; not gathered in venues without it);
     //  * who chooses an exit in step 3 (a quickest choice due, or an exit opened or closed);
