@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <span>
 #include <vector>
 
 using namespace ch;
@@ -203,6 +204,52 @@ BOOST_AUTO_TEST_CASE(segment_grid_matches_brute_force) {
         grid.near(p, r, got);
         BOOST_TEST(got == segmentsWithin(segs, p, r));
     }
+}
+
+BOOST_AUTO_TEST_CASE(box_index_lists_every_box_holding_a_point) {
+    // BoxIndex::at(p) must list (ascending, each once) every box holding p, wherever p is in its
+    // cell: boxes of all sizes, one far larger than the cells (the index then coarsens its cells),
+    // boxes that touch at an edge, a degenerate box (a point) and boxes it must leave out.
+    Rng rng(11);
+    std::vector<Box> boxes;
+    for (int k = 0; k < 400; ++k) {
+        const Vec2 a(rng.uniform(-40, 40), rng.uniform(-40, 40));
+        boxes.emplace_back(a, a + Vec2(rng.uniform(0, 3), rng.uniform(0, 3)));
+    }
+    boxes.emplace_back(Vec2(-39, -38), Vec2(39, 41));   // most of the scene
+    boxes.emplace_back(Vec2(2, 2), Vec2(4, 2.5));        // touching the next one at x = 4
+    boxes.emplace_back(Vec2(4, 2), Vec2(6, 2.5));
+    boxes.emplace_back(Vec2(1.5, -7.25), Vec2(1.5, -7.25));  // a point
+    boxes.emplace_back();                                     // empty: left out
+    boxes.emplace_back(Vec2(0, 0), Vec2(std::numeric_limits<double>::infinity(), 1));  // not finite: left out
+    for (const double cell : {0.5, 2.0, 7.0}) {
+        BoxIndex index;
+        index.build(boxes, cell);
+        std::vector<Vec2> points;
+        for (int q = 0; q < 20000; ++q) points.emplace_back(rng.uniform(-45, 45), rng.uniform(-45, 45));
+        // Corners and edges, where a cell boundary may fall.
+        for (const Box& b : boxes)
+            if (!b.empty() && b.hi.allFinite())
+                for (const Vec2& c : {b.lo, b.hi, Vec2(b.lo.x(), b.hi.y()), Vec2(b.hi.x(), b.lo.y())}) points.push_back(c);
+        for (const Vec2& p : points) {
+            const std::span<const int> listed = index.at(p);
+            BOOST_TEST(std::is_sorted(listed.begin(), listed.end()));
+            BOOST_TEST((std::adjacent_find(listed.begin(), listed.end()) == listed.end()));
+            for (std::size_t k = 0; k < boxes.size(); ++k) {
+                if (!boxes[k].contains(p)) continue;
+                const bool in = std::find(listed.begin(), listed.end(), static_cast<int>(k)) != listed.end();
+                BOOST_TEST((in || !boxes[k].hi.allFinite()), "box " << k << " missed at (" << p.x() << ", " << p.y() << ")");
+            }
+            for (const int k : listed) BOOST_TEST(boxes[static_cast<std::size_t>(k)].hi.allFinite());
+        }
+        // Far and not-finite points: nothing, no crash.
+        BOOST_TEST(index.at(Vec2(1e300, 0)).empty());
+        BOOST_TEST(index.at(Vec2(std::nan(""), 0)).empty());
+        BOOST_TEST(index.at(Vec2(-1e300, -1e300)).empty());
+    }
+    BoxIndex none;
+    none.build({}, 2.0);
+    BOOST_TEST(none.at(Vec2(0, 0)).empty());
 }
 
 BOOST_AUTO_TEST_CASE(segment_clearance_is_a_close_lower_bound) {

@@ -184,6 +184,93 @@ BOOST_AUTO_TEST_CASE(wall_penetration_is_measured_from_the_shortest_way_out) {
     BOOST_TEST(std::abs(sim.maxWallPenetration() - 0.45) < 1e-12);
 }
 
+BOOST_AUTO_TEST_CASE(wall_penetration_and_obstacles_found_by_index_match_a_scan_of_them_all) {
+    // A venue of many obstacles: small pillars (some overlapping, some concave), a hall-sized
+    // polygon round part of them and single walls. World::obstacleAt (only the obstacles listed in
+    // the point's cell are tested) must name the lowest-numbered polygon holding the point, as a
+    // scan of every obstacle does, and maxWallPenetration must equal the scan's depth.
+    Rng rng(21);
+    std::vector<AgentSpec> agents;
+    for (int k = 0; k < 600; ++k) {
+        const Vec2 p(rng.uniform(-2, 62), rng.uniform(-2, 62));
+        agents.push_back(test::agent(k + 1, p, p + Vec2(1, 0), rng.uniform(0.2, 0.3)));
+    }
+    auto spec = test::scenario(agents, {socialForcesPolicy()}, 0.1, 1);
+    for (int k = 0; k < 300; ++k) {
+        const Vec2 c(rng.uniform(0, 60), rng.uniform(0, 60));
+        const double s = rng.uniform(0.3, 2.5);
+        ObstacleSpec o;
+        if (k % 3 == 0)  // an L: concave
+            o.points = {c, c + Vec2(s, 0), c + Vec2(s, 0.4 * s), c + Vec2(0.4 * s, 0.4 * s), c + Vec2(0.4 * s, s), c + Vec2(0, s)};
+        else
+            o.points = {c, c + Vec2(s, 0.2 * s), c + Vec2(0.8 * s, s), c + Vec2(-0.1 * s, 0.9 * s)};
+        spec.obstacles.push_back(o);
+    }
+    ObstacleSpec hall;
+    hall.points = {{10, 10}, {50, 12}, {48, 50}, {12, 47}};
+    spec.obstacles.push_back(hall);
+    for (int k = 0; k < 20; ++k) {
+        ObstacleSpec wall;
+        const Vec2 a(rng.uniform(0, 60), rng.uniform(0, 60));
+        wall.points = {a, a + Vec2(rng.uniform(-6, 6), rng.uniform(-6, 6))};
+        spec.obstacles.push_back(wall);
+    }
+    Simulation sim(spec);
+    const World& world = sim.world();
+    const auto scanAt = [&](const Vec2& p) {
+        for (std::size_t o = 0; o < spec.obstacles.size(); ++o)
+            if (spec.obstacles[o].points.size() >= 3 && pointInPolygon(p, spec.obstacles[o].points)) return static_cast<int>(o);
+        return -1;
+    };
+    int inside = 0, insideHallOnly = 0;
+    for (int q = 0; q < 40000; ++q) {
+        const Vec2 p(rng.uniform(-3, 63), rng.uniform(-3, 63));
+        const int o = scanAt(p);
+        BOOST_TEST(world.obstacleAt(p) == o);
+        BOOST_TEST(world.insideObstacle(p) == (o >= 0));
+        inside += o >= 0 ? 1 : 0;
+        insideHallOnly += o == 300 ? 1 : 0;
+    }
+    // Vertices and points a hair to either side of them, where the crossings are interpolated
+    // (down to a few units in the last place: a crossing may round past the vertices' bounds).
+    for (const ObstacleSpec& ob : spec.obstacles)
+        for (const Vec2& v : ob.points) {
+            for (const Vec2& d : {Vec2(0, 0), Vec2(1e-12, 0), Vec2(-1e-12, 0), Vec2(0, 1e-12), Vec2(1e-9, -1e-9)})
+                BOOST_TEST(world.obstacleAt(v + d) == scanAt(v + d));
+            Vec2 right = v, left = v;
+            for (int k = 0; k < 4; ++k) {
+                right.x() = std::nextafter(right.x(), kInf);
+                left.x() = std::nextafter(left.x(), -kInf);
+                BOOST_TEST(world.obstacleAt(right) == scanAt(right));
+                BOOST_TEST(world.obstacleAt(left) == scanAt(left));
+            }
+        }
+    // A case where it does: pointInPolygon puts this point, one unit in the last place right of
+    // the triangle's rightmost vertex, inside the triangle.
+    ObstacleSpec tri;
+    tri.points = {{27.4579810196322, -44.928906881234894}, {-36.279110627786807, -40.350208675382298},
+                  {-3.8168176545457726, 7.1622508825139732}};
+    const Vec2 past(std::nextafter(tri.points[0].x(), kInf), tri.points[0].y());
+    BOOST_TEST(pointInPolygon(past, tri.points));
+    BOOST_TEST(!Box::around(tri.points).contains(past));
+    BOOST_TEST(World(WorldSpec{}, {tri}).obstacleAt(past) == 0);
+    BOOST_TEST(inside > 8000);        // the test covers both answers
+    BOOST_TEST(insideHallOnly > 3000);  // and points only the large polygon holds
+    // The depth, by a scan of every obstacle and segment.
+    double worst = 0;
+    const AgentStore& a = sim.agents();
+    for (std::size_t i = 0; i < a.size(); ++i) {
+        const Vec2& p = a.pos[i];
+        const int o = scanAt(p);
+        double d = kInf;
+        for (const Segment& seg : world.segments())
+            if (o < 0 || seg.obstacle == o) d = std::min(d, std::sqrt(distanceToSegmentSquared(p, seg.a, seg.b)));
+        worst = std::max(worst, o >= 0 ? a.radius[i] + d : a.radius[i] - d);
+    }
+    BOOST_TEST(worst > 1.0);  // someone is deep inside the hall polygon
+    BOOST_TEST(sim.maxWallPenetration() == worst);
+}
+
 BOOST_AUTO_TEST_CASE(reordering_agents_keeps_every_agents_state) {
     // A dense SPH crowd listed in reverse order, so re-ordering in grid order moves almost every
     // agent. Re-ordered every step or never, each agent (found by id) must end in the same place

@@ -221,38 +221,81 @@ std::vector<int> PointGrid::within(const Vec2& p, double radius) const {
     return out;
 }
 
-void SegmentGrid::build(const std::vector<Segment>& segments, double cellSize) {
-    segments_ = &segments;
+void BoxIndex::build(const std::vector<Box>& boxes, double cellSize) {
     cellStart_.clear();
     items_.clear();
     nx_ = ny_ = 0;
-    clear_.clear();
-    clearNx_ = clearNy_ = 0;
-    if (segments.empty()) return;
+    const auto listed = [](const Box& b) { return !b.empty() && b.lo.allFinite() && b.hi.allFinite(); };
+    Box bounds;
+    for (const Box& b : boxes)
+        if (listed(b)) bounds.add(b.lo), bounds.add(b.hi);
+    if (bounds.empty()) return;
+    origin_ = bounds.lo;
     cell_ = cellSize > 0 ? cellSize : 1.0;
-    Vec2 lo = segments[0].a, hi = segments[0].a;
-    for (const Segment& s : segments) {
-        lo = lo.cwiseMin(s.a).cwiseMin(s.b);
-        hi = hi.cwiseMax(s.a).cwiseMax(s.b);
+    // Few entries per box unless a box is far larger than the cells: then coarser cells.
+    const long long maxItems = (1LL << 22) + static_cast<long long>(boxes.size());
+    for (;;) {
+        cellsCovering(bounds.lo, bounds.hi, cell_, nx_, ny_);
+        long long items = 0;
+        for (const Box& b : boxes) {
+            if (!listed(b)) continue;
+            const Cells r = cells(b);
+            items += static_cast<long long>(r.x1 - r.x0 + 1) * (r.y1 - r.y0 + 1);
+        }
+        if (items <= maxItems || (nx_ == 1 && ny_ == 1)) break;
+        cell_ *= 2;
     }
-    cellsCovering(lo, hi, cell_, nx_, ny_);
-    origin_ = lo;
-    // Register each segment in every cell its bounding box touches (conservative), stored as one
-    // array with per-cell offsets (two passes: count, then fill in segment order).
-    const std::size_t ncells = static_cast<std::size_t>(nx_) * ny_;
+    // One array with per-cell offsets, in two passes (count, then fill in box order).
+    const std::size_t ncells = static_cast<std::size_t>(nx_) * static_cast<std::size_t>(ny_);
     cellStart_.assign(ncells + 1, 0);
-    auto forCells = [&](const Segment& s, auto&& f) {
-        const CellRange r = cellRange(Box(s.a, s.b), origin_, cell_, nx_, ny_);
+    const auto forCells = [&](const Box& b, auto&& f) {
+        const Cells r = cells(b);
         for (int y = r.y0; y <= r.y1; ++y)
-            for (int x = r.x0; x <= r.x1; ++x) f(static_cast<std::size_t>(y) * nx_ + x);
+            for (int x = r.x0; x <= r.x1; ++x) f(static_cast<std::size_t>(y) * static_cast<std::size_t>(nx_) + x);
     };
-    for (const Segment& s : segments) forCells(s, [&](std::size_t c) { ++cellStart_[c + 1]; });
+    for (const Box& b : boxes)
+        if (listed(b)) forCells(b, [&](std::size_t c) { ++cellStart_[c + 1]; });
     for (std::size_t c = 0; c < ncells; ++c) cellStart_[c + 1] += cellStart_[c];
     items_.resize(static_cast<std::size_t>(cellStart_[ncells]));
     std::vector<int> fill(cellStart_.begin(), cellStart_.end() - 1);
-    for (std::size_t k = 0; k < segments.size(); ++k)
-        forCells(segments[k], [&](std::size_t c) { items_[static_cast<std::size_t>(fill[c]++)] = static_cast<int>(k); });
-    buildClearance(lo, hi);
+    for (std::size_t k = 0; k < boxes.size(); ++k)
+        if (listed(boxes[k]))
+            forCells(boxes[k], [&](std::size_t c) { items_[static_cast<std::size_t>(fill[c]++)] = static_cast<int>(k); });
+}
+
+BoxIndex::Cells BoxIndex::cells(const Box& box) const {
+    if (empty() || box.empty()) return {0, -1, 0, -1};
+    // The same expression for every coordinate (a box's corners and a point alike): it is
+    // monotone, so a point of a box falls in one of the box's cells. Limited to [-1, n] (NaN
+    // gives -1) before the cast, so far-flung coordinates are safe.
+    const double inv = 1.0 / cell_;
+    const auto at = [inv](double v, double o, int n) {
+        const double c = (v - o) * inv;
+        return !(c >= 0) ? -1 : (c >= n ? n : static_cast<int>(c));
+    };
+    return {std::max(0, at(box.lo.x(), origin_.x(), nx_)), std::min(nx_ - 1, at(box.hi.x(), origin_.x(), nx_)),
+            std::max(0, at(box.lo.y(), origin_.y(), ny_)), std::min(ny_ - 1, at(box.hi.y(), origin_.y(), ny_))};
+}
+
+std::span<const int> BoxIndex::at(const Vec2& p) const {
+    const Cells r = cells(Box(p, p));
+    if (r.x0 > r.x1 || r.y0 > r.y1) return {};
+    return at(r.x0, r.y0);
+}
+
+void SegmentGrid::build(const std::vector<Segment>& segments, double cellSize) {
+    segments_ = &segments;
+    clear_.clear();
+    clearNx_ = clearNy_ = 0;
+    std::vector<Box> boxes;
+    boxes.reserve(segments.size());
+    Box bounds;
+    for (const Segment& s : segments) {
+        boxes.emplace_back(s.a, s.b);
+        bounds.add(s.a), bounds.add(s.b);
+    }
+    cells_.build(boxes, cellSize);
+    if (!segments.empty()) buildClearance(bounds.lo, bounds.hi);
 }
 
 void SegmentGrid::buildClearance(const Vec2& lo, const Vec2& hi) {
@@ -308,24 +351,17 @@ void SegmentGrid::buildClearance(const Vec2& lo, const Vec2& hi) {
 void SegmentGrid::near(const Vec2& p, double radius, std::vector<int>& out) const {
     out.clear();
     if (empty() || radius < clearance(p)) return;  // every segment farther than radius
-    // Cell range of the query's bounding box, padded by 1 µm (a superset is harmless: every
+    // The cells of the query's bounding box, padded by 1 µm (a superset is harmless: every
     // candidate is tested by distance, and the result is sorted).
-    const double reach = radius + 1e-6, inv = 1.0 / cell_;
-    auto cell = [](double v, int n) { return !(v >= 0) ? -1 : (v >= n ? n : static_cast<int>(v)); };
-    const int x0 = std::max(0, cell((p.x() - reach - origin_.x()) * inv, nx_));
-    const int x1 = std::min(nx_ - 1, cell((p.x() + reach - origin_.x()) * inv, nx_));
-    const int y0 = std::max(0, cell((p.y() - reach - origin_.y()) * inv, ny_));
-    const int y1 = std::min(ny_ - 1, cell((p.y() + reach - origin_.y()) * inv, ny_));
+    const double reach = radius + 1e-6;
+    const BoxIndex::Cells r = cells_.cells(Box(p - Vec2(reach, reach), p + Vec2(reach, reach)));
     const double r2 = radius * radius;
-    for (int y = y0; y <= y1; ++y)
-        for (int x = x0; x <= x1; ++x) {
-            const std::size_t c = static_cast<std::size_t>(y) * nx_ + x;
-            for (int k = cellStart_[c]; k < cellStart_[c + 1]; ++k) {
-                const int s = items_[static_cast<std::size_t>(k)];
+    for (int y = r.y0; y <= r.y1; ++y)
+        for (int x = r.x0; x <= r.x1; ++x)
+            for (const int s : cells_.at(x, y)) {
                 const Segment& seg = (*segments_)[static_cast<std::size_t>(s)];
                 if (distanceToSegmentSquared(p, seg.a, seg.b) <= r2) out.push_back(s);
             }
-        }
     if (out.size() > 1) {
         std::sort(out.begin(), out.end());
         out.erase(std::unique(out.begin(), out.end()), out.end());

@@ -616,25 +616,20 @@ double Simulation::maxWallPenetration() const {
     // Depth by which an agent's disc reaches into a wall: r − d for a centre outside at distance d
     // from the nearest wall, r + d for a centre inside an obstacle (d = distance to that
     // obstacle's nearest edge, i.e. the shortest way out).
+    // (Inside overlapping obstacles, the lowest-numbered one counts.)
     double worst = 0;
     std::vector<int> near;
-    const auto& obstacles = world_.obstacles();
     const auto& segments = world_.segments();
     for (std::size_t i = 0; i < agents_.size(); ++i) {
         const Vec2& p = agents_.pos[i];
         const double r = agents_.radius[i];
-        world_.segmentsNear(p, r, near);
-        bool inside = false;
-        for (std::size_t o = 0; o < obstacles.size() && !inside; ++o) {
-            if (obstacles[o].points.size() < 3 || !pointInPolygon(p, obstacles[o].points)) continue;
-            inside = true;
+        if (const int o = world_.obstacleAt(p); o >= 0) {
             double dmin = kInf;
-            for (const Segment& seg : segments)
-                if (seg.obstacle == static_cast<int>(o))
-                    dmin = std::min(dmin, std::sqrt(distanceToSegmentSquared(p, seg.a, seg.b)));
+            for (const Segment& seg : world_.segmentsOf(o)) dmin = std::min(dmin, std::sqrt(distanceToSegmentSquared(p, seg.a, seg.b)));
             worst = std::max(worst, r + dmin);
+            continue;
         }
-        if (inside) continue;
+        world_.segmentsNear(p, r, near);
         for (int s : near) {
             const Segment& seg = segments[s];
             worst = std::max(worst, r - std::sqrt(distanceToSegmentSquared(p, seg.a, seg.b)));

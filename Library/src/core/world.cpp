@@ -1,12 +1,15 @@
 // CrowdHealth — the static world.
 #include "crowdhealth/core/world.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace ch {
 
 World::World(const WorldSpec& spec, const std::vector<ObstacleSpec>& obstacles)
     : spec_(spec), obstacles_(obstacles) {
+    firstSegment_.assign(1, 0);
+    polygonBounds_.assign(obstacles_.size(), Box());
     for (std::size_t o = 0; o < obstacles_.size(); ++o) {
         const auto& pts = obstacles_[o].points;
         const std::size_t n = pts.size();
@@ -14,10 +17,19 @@ World::World(const WorldSpec& spec, const std::vector<ObstacleSpec>& obstacles)
         const std::size_t edges = n == 2 ? 1 : n;
         for (std::size_t k = 0; k < edges; ++k)
             segments_.push_back(Segment{pts[k], pts[(k + 1) % n], static_cast<int>(o)});
+        firstSegment_.push_back(segments_.size());
         particles_.insert(particles_.end(), obstacles_[o].particles.begin(), obstacles_[o].particles.end());
+        // pointInPolygon interpolates its crossings, so a point it finds inside may lie a few
+        // rounding errors to the right of the vertices' bounds: the margin keeps it in the box.
+        if (n >= 3) {
+            const Box b = Box::around(pts);
+            const double scale = std::max({std::abs(b.lo.x()), std::abs(b.hi.x()), std::abs(b.lo.y()), std::abs(b.hi.y())});
+            polygonBounds_[o] = b.grown(1e-6 + 1e-9 * scale);
+        }
     }
     // Walls are queried with radii of about an agent radius up to a few metres.
     segmentGrid_.build(segments_, 2.0);
+    polygons_.build(polygonBounds_, 2.0);
     particleGrid_.build(particles_, 1.0);
 }
 
@@ -44,10 +56,12 @@ bool World::inside(const Vec2& p) const {
     return p.x() >= spec_.xmin && p.x() <= spec_.xmax && p.y() >= spec_.ymin && p.y() <= spec_.ymax;
 }
 
-bool World::insideObstacle(const Vec2& p) const {
-    for (const ObstacleSpec& o : obstacles_)
-        if (o.points.size() >= 3 && pointInPolygon(p, o.points)) return true;
-    return false;
+int World::obstacleAt(const Vec2& p) const {
+    for (const int o : polygons_.at(p)) {
+        const std::size_t k = static_cast<std::size_t>(o);
+        if (polygonBounds_[k].contains(p) && pointInPolygon(p, obstacles_[k].points)) return o;
+    }
+    return -1;
 }
 
 }  // namespace ch

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <span>
 #include <vector>
 
 namespace ch {
@@ -155,6 +156,41 @@ private:
     }
 };
 
+/// Static shapes' bounding boxes bucketed in square cells (built once): each box is listed in
+/// every cell it touches, so the boxes listed in a point's cell include every box holding the
+/// point. World uses it to find the obstacle polygon a point lies in without testing them all,
+/// SegmentGrid to find the segments near a point.
+class BoxIndex {
+public:
+    /// Lists box k (k ascending) in every cell it touches. Cells of `cellSize` (m), doubled while
+    /// the boxes' bounds would need more than 2^22 cells or the lists more than 2^22 entries plus
+    /// one per box (a few huge shapes over a large venue). Empty boxes and boxes with a coordinate
+    /// that is not finite are not listed.
+    void build(const std::vector<Box>& boxes, double cellSize);
+    bool empty() const { return cellStart_.empty(); }
+    /// The cells [x0, x1] × [y0, y1] that `box` touches, clamped to the grid (x0 > x1 or y0 > y1:
+    /// none). `box` must have finite bounds, or be empty.
+    struct Cells {
+        int x0, x1, y0, y1;
+    };
+    Cells cells(const Box& box) const;
+    /// The boxes listed in cell (x, y), ascending.
+    std::span<const int> at(int x, int y) const {
+        const std::size_t c = static_cast<std::size_t>(y) * static_cast<std::size_t>(nx_) + static_cast<std::size_t>(x);
+        return {items_.data() + cellStart_[c], static_cast<std::size_t>(cellStart_[c + 1] - cellStart_[c])};
+    }
+    /// The boxes listed in p's cell, ascending (none when p is off the grid or not finite).
+    std::span<const int> at(const Vec2& p) const;
+    double cellSize() const { return cell_; }
+
+private:
+    double cell_ = 1;
+    Vec2 origin_{0, 0};
+    int nx_ = 0, ny_ = 0;
+    std::vector<int> cellStart_;  ///< size nx*ny+1: the boxes of cell c are items_[start[c], start[c+1])
+    std::vector<int> items_;
+};
+
 /// Static wall segments bucketed in square cells (built once).
 class SegmentGrid {
 public:
@@ -180,11 +216,7 @@ private:
     void buildClearance(const Vec2& lo, const Vec2& hi);
 
     const std::vector<Segment>* segments_ = nullptr;
-    double cell_ = 1;
-    Vec2 origin_{0, 0};
-    int nx_ = 0, ny_ = 0;
-    std::vector<int> cellStart_;  ///< size nx*ny+1: the segments of cell c are items_[start[c], start[c+1])
-    std::vector<int> items_;
+    BoxIndex cells_;  ///< each segment's bounding box
     Vec2 clearOrigin_{0, 0};
     double clearInv_ = 0;
     int clearNx_ = 0, clearNy_ = 0;

@@ -6,6 +6,7 @@
 #include "crowdhealth/core/grid.h"
 #include "crowdhealth/core/scenario.h"
 
+#include <span>
 #include <vector>
 
 namespace ch {
@@ -35,13 +36,25 @@ public:
     const std::vector<Vec2>& boundaryParticles() const { return particles_; }
     const PointGrid& particleGrid() const { return particleGrid_; }
     /// True when p is inside any obstacle polygon.
-    bool insideObstacle(const Vec2& p) const;
+    bool insideObstacle(const Vec2& p) const { return obstacleAt(p) >= 0; }
+    /// The lowest index of the obstacle polygons (three points or more) p lies inside
+    /// (pointInPolygon), or −1. Only the obstacles listed in p's cell of an index of their bounds
+    /// are tested, so a venue of thousands of obstacles costs a few tests, not thousands.
+    int obstacleAt(const Vec2& p) const;
+    /// Obstacle o's edges: a contiguous run of segments().
+    std::span<const Segment> segmentsOf(int o) const {
+        const std::size_t k = static_cast<std::size_t>(o);
+        return {segments_.data() + firstSegment_[k], firstSegment_[k + 1] - firstSegment_[k]};
+    }
 
 private:
     WorldSpec spec_;
     std::vector<ObstacleSpec> obstacles_;
     std::vector<Segment> segments_;
+    std::vector<std::size_t> firstSegment_;  ///< obstacle o's edges: segments_[first[o], first[o + 1])
     SegmentGrid segmentGrid_;
+    std::vector<Box> polygonBounds_;  ///< each obstacle polygon's bounds, widened a little (empty for a wall)
+    BoxIndex polygons_;               ///< polygonBounds_ by cell
     std::vector<Vec2> particles_;
     PointGrid particleGrid_;
 };
