@@ -250,6 +250,13 @@ BOOST_AUTO_TEST_CASE(box_index_lists_every_box_holding_a_point) {
     BoxIndex none;
     none.build({}, 2.0);
     BOOST_TEST(none.at(Vec2(0, 0)).empty());
+    // Twenty boxes of 1 km²: in 0.5 m cells that is 80 million entries. The index coarsens its
+    // cells until there are at most 2^22 (plus one per box): 4 m cells, 1.25 million entries.
+    std::vector<Box> huge(20, Box(Vec2(0, 0), Vec2(1000, 1000)));
+    BoxIndex coarse;
+    coarse.build(huge, 0.5);
+    BOOST_TEST(coarse.cellSize() == 4.0);
+    BOOST_TEST(coarse.at(Vec2(999.9, 0.1)).size() == 20u);
 }
 
 BOOST_AUTO_TEST_CASE(segment_clearance_is_a_close_lower_bound) {

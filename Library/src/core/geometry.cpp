@@ -6,18 +6,6 @@
 
 namespace ch {
 
-Vec2 closestPointOnSegment(const Vec2& p, const Vec2& a, const Vec2& b) {
-    const Vec2 ab = b - a;
-    const double len2 = ab.squaredNorm();
-    if (len2 <= 0.0) return a;
-    const double t = std::clamp((p - a).dot(ab) / len2, 0.0, 1.0);
-    return a + t * ab;
-}
-
-double distanceToSegmentSquared(const Vec2& p, const Vec2& a, const Vec2& b) {
-    return (p - closestPointOnSegment(p, a, b)).squaredNorm();
-}
-
 bool pointInPolygon(const Vec2& p, const std::vector<Vec2>& poly) {
     bool inside = false;
     const std::size_t n = poly.size();

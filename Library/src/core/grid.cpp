@@ -225,6 +225,7 @@ void BoxIndex::build(const std::vector<Box>& boxes, double cellSize) {
     cellStart_.clear();
     items_.clear();
     nx_ = ny_ = 0;
+    boxCells_.clear();
     const auto listed = [](const Box& b) { return !b.empty() && b.lo.allFinite() && b.hi.allFinite(); };
     Box bounds;
     for (const Box& b : boxes)
@@ -246,25 +247,26 @@ void BoxIndex::build(const std::vector<Box>& boxes, double cellSize) {
         cell_ *= 2;
     }
     // One array with per-cell offsets, in two passes (count, then fill in box order).
+    boxCells_.assign(boxes.size(), Cells{0, -1, 0, -1});
+    for (std::size_t k = 0; k < boxes.size(); ++k)
+        if (listed(boxes[k])) boxCells_[k] = cells(boxes[k]);
     const std::size_t ncells = static_cast<std::size_t>(nx_) * static_cast<std::size_t>(ny_);
     cellStart_.assign(ncells + 1, 0);
-    const auto forCells = [&](const Box& b, auto&& f) {
-        const Cells r = cells(b);
+    const auto forCells = [&](std::size_t k, auto&& f) {
+        const Cells& r = boxCells_[k];
         for (int y = r.y0; y <= r.y1; ++y)
             for (int x = r.x0; x <= r.x1; ++x) f(static_cast<std::size_t>(y) * static_cast<std::size_t>(nx_) + x);
     };
-    for (const Box& b : boxes)
-        if (listed(b)) forCells(b, [&](std::size_t c) { ++cellStart_[c + 1]; });
+    for (std::size_t k = 0; k < boxes.size(); ++k) forCells(k, [&](std::size_t c) { ++cellStart_[c + 1]; });
     for (std::size_t c = 0; c < ncells; ++c) cellStart_[c + 1] += cellStart_[c];
     items_.resize(static_cast<std::size_t>(cellStart_[ncells]));
     std::vector<int> fill(cellStart_.begin(), cellStart_.end() - 1);
     for (std::size_t k = 0; k < boxes.size(); ++k)
-        if (listed(boxes[k]))
-            forCells(boxes[k], [&](std::size_t c) { items_[static_cast<std::size_t>(fill[c]++)] = static_cast<int>(k); });
+        forCells(k, [&](std::size_t c) { items_[static_cast<std::size_t>(fill[c]++)] = static_cast<int>(k); });
 }
 
 BoxIndex::Cells BoxIndex::cells(const Box& box) const {
-    if (empty() || box.empty()) return {0, -1, 0, -1};
+    if (nx_ <= 0 || ny_ <= 0 || box.empty()) return {0, -1, 0, -1};
     // The same expression for every coordinate (a box's corners and a point alike): it is
     // monotone, so a point of a box falls in one of the box's cells. Limited to [-1, n] (NaN
     // gives -1) before the cast, so far-flung coordinates are safe.
@@ -352,20 +354,19 @@ void SegmentGrid::near(const Vec2& p, double radius, std::vector<int>& out) cons
     out.clear();
     if (empty() || radius < clearance(p)) return;  // every segment farther than radius
     // The cells of the query's bounding box, padded by 1 µm (a superset is harmless: every
-    // candidate is tested by distance, and the result is sorted).
+    // candidate is tested by distance). A segment listed in several of them is tested in the
+    // first only.
     const double reach = radius + 1e-6;
     const BoxIndex::Cells r = cells_.cells(Box(p - Vec2(reach, reach), p + Vec2(reach, reach)));
     const double r2 = radius * radius;
     for (int y = r.y0; y <= r.y1; ++y)
         for (int x = r.x0; x <= r.x1; ++x)
             for (const int s : cells_.at(x, y)) {
+                if (!cells_.firstAt(s, r, x, y)) continue;
                 const Segment& seg = (*segments_)[static_cast<std::size_t>(s)];
                 if (distanceToSegmentSquared(p, seg.a, seg.b) <= r2) out.push_back(s);
             }
-    if (out.size() > 1) {
-        std::sort(out.begin(), out.end());
-        out.erase(std::unique(out.begin(), out.end()), out.end());
-    }
+    if (out.size() > 1) std::sort(out.begin(), out.end());
 }
 
 }  // namespace ch

@@ -207,6 +207,10 @@ Vec2 Simulation::umansContactAcceleration(const AgentQuery& q, double scale, dou
             if (overlap > 0 && d > 1e-12) acc -= n.offset / d * (scale * overlap);
         }
     }
+    // Walls: the query's are those within the policy's range (5 m for SocialForces), but only
+    // those within q.radius touch. Most agents are farther than that from every wall, which the
+    // walls' clearance raster tells at once (a lower bound of the distance to each of them).
+    if (q.segments.empty() || q.radius <= world_.wallClearance(q.position)) return acc / q.mass;
     for (int s : q.segments) {
         const Segment& seg = world_.segments()[s];
         const Vec2 diff = q.position - closestPointOnSegment(q.position, seg.a, seg.b);

@@ -3,6 +3,7 @@
 
 #include "crowdhealth/core/types.h"
 
+#include <algorithm>
 #include <vector>
 
 namespace ch {
@@ -46,10 +47,19 @@ struct Box {
     }
 };
 
-/// Closest point to p on segment [a, b].
-Vec2 closestPointOnSegment(const Vec2& p, const Vec2& a, const Vec2& b);
+/// Closest point to p on segment [a, b]. (Inline: the wall queries call it for every candidate
+/// wall of every agent, and a call kept each one's division from overlapping the next.)
+inline Vec2 closestPointOnSegment(const Vec2& p, const Vec2& a, const Vec2& b) {
+    const Vec2 ab = b - a;
+    const double len2 = ab.squaredNorm();
+    if (len2 <= 0.0) return a;
+    const double t = std::clamp((p - a).dot(ab) / len2, 0.0, 1.0);
+    return a + t * ab;
+}
 /// Squared distance from p to segment [a, b].
-double distanceToSegmentSquared(const Vec2& p, const Vec2& a, const Vec2& b);
+inline double distanceToSegmentSquared(const Vec2& p, const Vec2& a, const Vec2& b) {
+    return (p - closestPointOnSegment(p, a, b)).squaredNorm();
+}
 /// True when p lies inside the closed polygon (even-odd rule).
 bool pointInPolygon(const Vec2& p, const std::vector<Vec2>& polygon);
 /// Signed area of a polygon (positive when counter-clockwise).

@@ -181,12 +181,21 @@ public:
     }
     /// The boxes listed in p's cell, ascending (none when p is off the grid or not finite).
     std::span<const int> at(const Vec2& p) const;
+    /// The cells box k is listed in (none for a box left out).
+    const Cells& cellsOf(int k) const { return boxCells_[static_cast<std::size_t>(k)]; }
+    /// True when a scan of the cells `scan` (row by row, y outer) meets box k first at (x, y):
+    /// a scan that counts each box there only sees it once.
+    bool firstAt(int k, const Cells& scan, int x, int y) const {
+        const Cells& c = cellsOf(k);
+        return x == std::max(c.x0, scan.x0) && y == std::max(c.y0, scan.y0);
+    }
     double cellSize() const { return cell_; }
 
 private:
     double cell_ = 1;
     Vec2 origin_{0, 0};
     int nx_ = 0, ny_ = 0;
+    std::vector<Cells> boxCells_;
     std::vector<int> cellStart_;  ///< size nx*ny+1: the boxes of cell c are items_[start[c], start[c+1])
     std::vector<int> items_;
 };
