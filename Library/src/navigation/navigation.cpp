@@ -600,6 +600,10 @@ void Navigation::update(AgentStore& a, double t, std::uint64_t seed) {
     serial_.clear();
     choosers_.clear();
     const bool listChoosers = !fields_.empty() && choiceSlots_ > 0;
+    // The m-th chooser's row of paths to its set's exits (none when they are not sampled).
+    const auto pathsOf = [&](std::size_t m) -> const double* {
+        return listChoosers ? &choicePaths_[m * choiceSlots_] : nullptr;
+    };
     static const std::vector<int> kNoExits;
 #pragma omp parallel if (team)
     {
@@ -719,12 +723,12 @@ void Navigation::update(AgentStore& a, double t, std::uint64_t seed) {
         }
         // 3a. Exit choices outside social groups: each reads the indexes and its own row and
         // writes its own slots only, so they run on the team (those in groups are in serial_).
-        if (more)
+        if (more) {
 #pragma omp for schedule(static)
-        for (std::ptrdiff_t mm = 0; mm < static_cast<std::ptrdiff_t>(choosers_.size()); ++mm) {
-            const std::size_t m = static_cast<std::size_t>(mm), i = choosers_[m];
-            if (!sharesGroupExit(a, i))
-                chooseExit(a, i, t, seed, mine.scratch, true, listChoosers ? &choicePaths_[m * choiceSlots_] : nullptr);
+            for (std::ptrdiff_t mm = 0; mm < static_cast<std::ptrdiff_t>(choosers_.size()); ++mm) {
+                const std::size_t m = static_cast<std::size_t>(mm), i = choosers_[m];
+                if (!sharesGroupExit(a, i)) chooseExit(a, i, t, seed, mine.scratch, true, pathsOf(m));
+            }
         }
     }
 
@@ -739,7 +743,7 @@ void Navigation::update(AgentStore& a, double t, std::uint64_t seed) {
         // Step 2 sampled its current target (-1: none), and the pass after it the other exits
         // of its set.
         const std::size_t m = static_cast<std::size_t>(std::lower_bound(choosers_.begin(), choosers_.end(), i) - choosers_.begin());
-        chooseExit(a, i, t, seed, scratch_, true, listChoosers ? &choicePaths_[m * choiceSlots_] : nullptr);
+        chooseExit(a, i, t, seed, scratch_, true, pathsOf(m));
     }
 
     // Checkpoints with a capacity admit their free places to the nearest waiting people.
