@@ -259,6 +259,35 @@ BOOST_AUTO_TEST_CASE(box_index_lists_every_box_holding_a_point) {
     BOOST_TEST(coarse.at(Vec2(999.9, 0.1)).size() == 20u);
 }
 
+BOOST_AUTO_TEST_CASE(segment_grid_readied_for_a_range_matches_brute_force) {
+    // After prepare(range), queries of a radius in [¾ range, range] read one list per point;
+    // every radius must still find exactly the segments within it, ascending: at random points,
+    // next to the segments' ends (where the widened bounds end) and far away.
+    Rng rng(4);
+    std::vector<Segment> segs = randomSegments(rng, 300, 20, 6);
+    segs.push_back(Segment{Vec2(-30, -22), Vec2(30, -22), 300});  // a long wall
+    SegmentGrid grid;
+    grid.build(segs, 2.0);
+    grid.prepare(5.0);
+    grid.prepare(1.0);
+    grid.prepare(5.0);  // again: nothing more
+    std::vector<Vec2> points;
+    for (int q = 0; q < 3000; ++q) points.emplace_back(rng.uniform(-40, 40), rng.uniform(-40, 40));
+    for (const Segment& s : segs)
+        for (const Vec2& end : {s.a, s.b})
+            for (const double r : {1.0, 5.0})
+                for (const Vec2 d : {Vec2(r, 0), Vec2(-r, 0), Vec2(0, r), Vec2(0, -r), Vec2(0.7 * r, 0.7 * r)})
+                    points.push_back(end + d);
+    points.emplace_back(1e6, 0);
+    points.emplace_back(std::nan(""), 0);
+    std::vector<int> got;
+    for (const Vec2& p : points)
+        for (const double r : {5.0, 4.9999999, 3.75, 3.7, 1.0, 0.8, 0.5, 2.0, 5.3, 6.0}) {
+            grid.near(p, r, got);
+            BOOST_TEST(got == segmentsWithin(segs, p, r), "r " << r << " at (" << p.x() << ", " << p.y() << ")");
+        }
+}
+
 BOOST_AUTO_TEST_CASE(segment_clearance_is_a_close_lower_bound) {
     // SegmentGrid::near answers "nothing within radius" from a raster of lower bounds of the
     // distance to the walls without scanning: the bound must never exceed the true distance (or

@@ -3,8 +3,8 @@
 // neighbour list (64 entries at a time), so a crowd with more than 64 neighbours per agent, many
 // of them overlapping, and radii that differ, must give every agent the spring sum over *all*
 // its overlapping neighbours, as the definition computed here by brute force. Walls likewise:
-// the pass skips the walls of agents the walls' clearance raster puts out of reach of them all,
-// and an agent by a wall must still get the spring of every wall it overlaps.
+// the pass skips the walls whose bounds lie beyond the agent's radius, and an agent by a wall
+// must still get the spring of every wall it overlaps.
 #define BOOST_TEST_MODULE core_umans_contact
 #include <boost/test/unit_test.hpp>
 

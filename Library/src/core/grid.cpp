@@ -287,6 +287,7 @@ std::span<const int> BoxIndex::at(const Vec2& p) const {
 
 void SegmentGrid::build(const std::vector<Segment>& segments, double cellSize) {
     segments_ = &segments;
+    ranged_.clear();
     clear_.clear();
     clearNx_ = clearNy_ = 0;
     std::vector<Box> boxes;
@@ -350,9 +351,39 @@ void SegmentGrid::buildClearance(const Vec2& lo, const Vec2& hi) {
     }
 }
 
+void SegmentGrid::prepare(double range) {
+    if (empty() || !(range > 0) || !(range < kInf)) return;
+    for (const Ranged& g : ranged_)
+        if (g.range == range) return;
+    // A point within `range` of a segment lies in its bounds widened by `range` (the distance is
+    // at least each coordinate's), and the margin covers the rounding of the distance test.
+    std::vector<Box> boxes;
+    boxes.reserve(segments_->size());
+    for (const Segment& s : *segments_) {
+        const Box b(s.a, s.b);
+        const double scale = std::max({std::abs(b.lo.x()), std::abs(b.hi.x()), std::abs(b.lo.y()), std::abs(b.hi.y())});
+        boxes.push_back(b.grown(range + 1e-6 + 1e-9 * scale));
+    }
+    // Cells of a quarter of the range: a list holds the segments within about 1.1 range of p,
+    // where the cells round p would hold those within 1.4 range and more than one cell each.
+    Ranged g{range, {}};
+    g.index.build(boxes, std::max(0.5, 0.25 * range));
+    ranged_.push_back(std::move(g));
+}
+
 void SegmentGrid::near(const Vec2& p, double radius, std::vector<int>& out) const {
     out.clear();
-    if (empty() || radius < clearance(p)) return;  // every segment farther than radius
+    if (empty()) return;
+    for (const Ranged& g : ranged_) {
+        if (!(radius <= g.range && radius >= 0.75 * g.range)) continue;
+        const double r2 = radius * radius;
+        for (const int s : g.index.at(p)) {
+            const Segment& seg = (*segments_)[static_cast<std::size_t>(s)];
+            if (distanceToSegmentSquared(p, seg.a, seg.b) <= r2) out.push_back(s);
+        }
+        return;
+    }
+    if (radius < clearance(p)) return;  // every segment farther than radius
     // The cells of the query's bounding box, padded by 1 µm (a superset is harmless: every
     // candidate is tested by distance). A segment listed in several of them is tested in the
     // first only.

@@ -62,6 +62,7 @@ Simulation::Simulation(ScenarioSpec specIn)
         maxRange_ = std::max(maxRange_, r);
     }
     gridCell_ = stepGridCell(maxRange_);
+    world_.prepareWallQueries(policyRange_);  // every agent's walls within its policy's range, every step
     // Lists are stored only when some component reads them through its StepContext.
     needStoredLists_ = false;
     for (const Policy& p : policies_)
@@ -208,11 +209,14 @@ Vec2 Simulation::umansContactAcceleration(const AgentQuery& q, double scale, dou
         }
     }
     // Walls: the query's are those within the policy's range (5 m for SocialForces), but only
-    // those within q.radius touch. Most agents are farther than that from every wall, which the
-    // walls' clearance raster tells at once (a lower bound of the distance to each of them).
-    if (q.segments.empty() || q.radius <= world_.wallClearance(q.position)) return acc / q.mass;
+    // those within q.radius touch. A wall whose bounds are farther than that along x or y is
+    // passed over before its nearest point is computed (its distance is at least as far).
+    const Vec2& p = q.position;
     for (int s : q.segments) {
         const Segment& seg = world_.segments()[s];
+        if (std::max({std::min(seg.a.x(), seg.b.x()) - p.x(), p.x() - std::max(seg.a.x(), seg.b.x()),
+                      std::min(seg.a.y(), seg.b.y()) - p.y(), p.y() - std::max(seg.a.y(), seg.b.y())}) > q.radius)
+            continue;
         const Vec2 diff = q.position - closestPointOnSegment(q.position, seg.a, seg.b);
         const double d = diff.norm();
         const double overlap = q.radius - d;

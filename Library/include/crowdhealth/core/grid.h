@@ -206,6 +206,11 @@ public:
     void build(const std::vector<Segment>& segments, double cellSize);
     /// Indices of the segments that come within `radius` of p (each once, ascending).
     void near(const Vec2& p, double radius, std::vector<int>& out) const;
+    /// Readies near() for queries of about `range` (a policy's neighbourhood, asked for every
+    /// agent at every step): a second index lists in each cell, ascending, the segments whose
+    /// bounds widened by `range` touch it, and a query of a radius in [¾ range, range] tests
+    /// only p's cell's list: no scan of the cells round p, no sort. The same answers.
+    void prepare(double range);
     bool empty() const { return segments_ == nullptr || segments_->empty(); }
     /// A lower bound (m) of p's distance to every segment: 0 where nothing is known (outside the
     /// clearance raster, NaN p), at most kClearanceReach. near() with a smaller radius finds nothing.
@@ -226,6 +231,11 @@ private:
 
     const std::vector<Segment>* segments_ = nullptr;
     BoxIndex cells_;  ///< each segment's bounding box
+    struct Ranged {
+        double range;
+        BoxIndex index;  ///< each segment's bounding box widened by `range` (and a rounding margin)
+    };
+    std::vector<Ranged> ranged_;
     Vec2 clearOrigin_{0, 0};
     double clearInv_ = 0;
     int clearNx_ = 0, clearNy_ = 0;

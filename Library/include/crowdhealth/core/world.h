@@ -32,9 +32,11 @@ public:
     const std::vector<Segment>& segments() const { return segments_; }
     /// Indices of the segments within `radius` of p (ascending, each once).
     void segmentsNear(const Vec2& p, double radius, std::vector<int>& out) const { segmentGrid_.near(p, radius, out); }
-    /// A lower bound (m) of p's distance to every wall: 0 where nothing is known (see
-    /// SegmentGrid::clearance). No wall comes within a radius not above it.
-    double wallClearance(const Vec2& p) const { return segmentGrid_.clearance(p); }
+    /// Readies segmentsNear() for queries of these radii (the policies' neighbourhoods): see
+    /// SegmentGrid::prepare.
+    void prepareWallQueries(const std::vector<double>& radii) {
+        for (const double r : radii) segmentGrid_.prepare(r);
+    }
     /// Static SPH boundary particles of every obstacle (m).
     const std::vector<Vec2>& boundaryParticles() const { return particles_; }
     const PointGrid& particleGrid() const { return particleGrid_; }
