@@ -41,116 +41,104 @@ Vec2 definition(const std::map<AgentId, Body>& bodies, AgentId a, double scale, 
     return acc / me.mass;
 }
 
-/// 144 agents on a jittered 0.25 m lattice (3 m across: every one within 5 m of every other, so
-/// ~143 entries per list), radii 0.15–0.35 m; runs two steps and checks the second step's contact
-/// (computed from the positions after the first) against the definition. Returns how many agents
-/// had a non-zero contact.
-int checkPackedCluster(int threads) {
-    std::mt19937_64 rng(7);
-    std::uniform_real_distribution<double> jitter(-0.05, 0.05), radius(0.15, 0.35);
+/// side × side agents on a jittered lattice of `spacing` from (origin, origin), radii 0.15–0.35 m,
+/// odd rows walking +x and even rows −x towards goals `goal` metres away.
+std::vector<AgentSpec> jitteredLattice(int side, double spacing, double origin, double jitter, double goal,
+                                       std::mt19937_64& rng) {
+    std::uniform_real_distribution<double> shift(-jitter, jitter), radius(0.15, 0.35);
     std::vector<AgentSpec> agents;
-    for (int r = 0; r < 12; ++r)
-        for (int c = 0; c < 12; ++c) {
-            const Vec2 p(10 + 0.25 * c + jitter(rng), 10 + 0.25 * r + jitter(rng));
-            agents.push_back(test::agent(static_cast<AgentId>(agents.size()), p, Vec2(p.x() + (r % 2 ? 20 : -20), p.y()),
+    for (int r = 0; r < side; ++r)
+        for (int c = 0; c < side; ++c) {
+            const Vec2 p(origin + spacing * c + shift(rng), origin + spacing * r + shift(rng));
+            agents.push_back(test::agent(static_cast<AgentId>(agents.size()), p, Vec2(p.x() + (r % 2 ? goal : -goal), p.y()),
                                          radius(rng)));
         }
-    agents[37].radius = 0.6;  // one large body: the bound comes from the largest radius
+    return agents;
+}
+
+/// How many agents had a spring from another agent, and how many from a wall.
+struct Touching {
+    int agents = 0, walls = 0;
+};
+
+/// Runs two SocialForces steps (range 5 m, UMANS' contact scale 62.5) and checks every agent's
+/// contact in the second step, computed from the positions after the first, against the
+/// definition: the springs of every other agent it overlaps and of every wall of the world it
+/// overlaps.
+Touching checkContact(int threads, const std::vector<AgentSpec>& agents, const std::vector<ObstacleSpec>& obstacles) {
     const double scale = 62.5, range = 5.0;
     ScenarioSpec spec = test::scenario(
         agents, {test::policy(0, OptimisationMethod::Gradient,
                               {test::component("SocialForcesAvoidance", {{"range", range}}), test::component("GoalReachingForce")},
                               0.5, {}, StepTiming::Coarse, scale)},
         0.1, 10.0);
+    spec.obstacles = obstacles;
     Simulation sim(spec);
     sim.setThreads(threads);
     sim.stepCoarse();
     std::map<AgentId, Body> bodies;
     {
         const AgentStore& A = sim.agents();
-        BOOST_TEST_REQUIRE(A.size() == 144u);
+        BOOST_TEST_REQUIRE(A.size() == agents.size());
         for (std::size_t i = 0; i < A.size(); ++i) bodies[A.id[i]] = Body{A.pos[i], A.radius[i], A.mass[i]};
     }
     sim.stepCoarse();
     const AgentStore& A = sim.agents();
-    int touching = 0;
+    Touching touching;
     for (std::size_t i = 0; i < A.size(); ++i) {
-        const Vec2 want = definition(bodies, A.id[i], scale, range);
+        const Body& me = bodies.at(A.id[i]);
+        const Vec2 fromAgents = definition(bodies, A.id[i], scale, range);
+        Vec2 fromWalls(0, 0);
+        for (const Segment& seg : sim.world().segments()) {
+            const Vec2 diff = me.pos - closestPointOnSegment(me.pos, seg.a, seg.b);
+            const double d = diff.norm(), overlap = me.radius - d;
+            if (overlap > 0 && d > 1e-12) fromWalls += diff / d * (scale * overlap);
+        }
+        const Vec2 want = fromAgents + fromWalls / me.mass;
         const Vec2 got = A.contactAccel[i];
         // Summed in another order than the list's: equal to rounding (|acc| ~ 10-100 m/s²).
         BOOST_TEST_REQUIRE((got - want).norm() <= 1e-9 * (1 + want.norm()),
                            "agent " << A.id[i] << ": " << got.transpose() << " vs " << want.transpose());
-        if (want.squaredNorm() > 0) ++touching;
+        touching.agents += fromAgents.squaredNorm() > 0 ? 1 : 0;
+        touching.walls += fromWalls.squaredNorm() > 0 ? 1 : 0;
     }
     return touching;
 }
 
-/// 400 agents on a jittered 1 m lattice (no two touch), radii 0.15–0.35 m, among 0.6 m pillars
-/// every 3 m and a long wall; the second step's contact must be the spring of every wall each
-/// agent overlaps (the definition, over every segment of the world). Returns how many touched.
-int checkWalls(int threads) {
+/// 144 agents on a jittered 0.25 m lattice (3 m across: every one within 5 m of every other, so
+/// ~143 entries per list), one of them large.
+Touching checkPackedCluster(int threads) {
+    std::mt19937_64 rng(7);
+    std::vector<AgentSpec> agents = jitteredLattice(12, 0.25, 10, 0.05, 20, rng);
+    agents[37].radius = 0.6;  // one large body: the bound comes from the largest radius
+    return checkContact(threads, agents, {});
+}
+
+/// 400 agents on a jittered 1 m lattice (no two touch) among 0.6 m pillars every 3 m and a long wall.
+Touching checkWalls(int threads) {
     std::mt19937_64 rng(9);
-    std::uniform_real_distribution<double> jitter(-0.3, 0.3), radius(0.15, 0.35);
-    std::vector<AgentSpec> agents;
-    for (int r = 0; r < 20; ++r)
-        for (int c = 0; c < 20; ++c) {
-            const Vec2 p(c + jitter(rng), r + jitter(rng));
-            agents.push_back(test::agent(static_cast<AgentId>(agents.size()), p, Vec2(p.x() + (r % 2 ? 30 : -30), p.y()),
-                                         radius(rng)));
-        }
-    const double scale = 62.5, range = 5.0;
-    ScenarioSpec spec = test::scenario(
-        agents, {test::policy(0, OptimisationMethod::Gradient,
-                              {test::component("SocialForcesAvoidance", {{"range", range}}), test::component("GoalReachingForce")},
-                              0.5, {}, StepTiming::Coarse, scale)},
-        0.1, 10.0);
+    std::vector<ObstacleSpec> obstacles;
     for (int i = 0; i < 7; ++i)
         for (int j = 0; j < 7; ++j) {
             ObstacleSpec o;
             const Vec2 c(3.0 * i + 0.7, 3.0 * j + 0.7);
             o.points = {c, c + Vec2(0.6, 0), c + Vec2(0.6, 0.6), c + Vec2(0, 0.6)};
-            spec.obstacles.push_back(o);
+            obstacles.push_back(o);
         }
     ObstacleSpec wall;
     wall.points = {{-1, 10.2}, {21, 10.2}};
-    spec.obstacles.push_back(wall);
-    Simulation sim(spec);
-    sim.setThreads(threads);
-    sim.stepCoarse();
-    std::map<AgentId, Body> bodies;
-    {
-        const AgentStore& A = sim.agents();
-        for (std::size_t i = 0; i < A.size(); ++i) bodies[A.id[i]] = Body{A.pos[i], A.radius[i], A.mass[i]};
-    }
-    sim.stepCoarse();
-    const AgentStore& A = sim.agents();
-    BOOST_TEST_REQUIRE(A.size() == 400u);
-    int touching = 0;
-    for (std::size_t i = 0; i < A.size(); ++i) {
-        const Body& me = bodies.at(A.id[i]);
-        Vec2 want = definition(bodies, A.id[i], scale, range);
-        BOOST_TEST_REQUIRE(want.squaredNorm() == 0.0);  // no two agents touch
-        for (const Segment& seg : sim.world().segments()) {
-            const Vec2 diff = me.pos - closestPointOnSegment(me.pos, seg.a, seg.b);
-            const double d = diff.norm(), overlap = me.radius - d;
-            if (overlap > 0 && d > 1e-12) want += diff / d * (scale * overlap);
-        }
-        want /= me.mass;
-        const Vec2 got = A.contactAccel[i];
-        BOOST_TEST_REQUIRE((got - want).norm() <= 1e-9 * (1 + want.norm()),
-                           "agent " << A.id[i] << ": " << got.transpose() << " vs " << want.transpose());
-        if (want.squaredNorm() > 0) ++touching;
-    }
-    return touching;
+    obstacles.push_back(wall);
+    return checkContact(threads, jitteredLattice(20, 1.0, 0, 0.3, 30, rng), obstacles);
 }
 
 }  // namespace
 
 BOOST_AUTO_TEST_CASE(contact_with_walls_is_the_sum_over_every_wall_overlapped) {
     for (const int threads : {1, 2}) {
-        const int touching = checkWalls(threads);
-        BOOST_TEST(touching > 20, "threads " << threads << ": " << touching << " touching a wall");
-        BOOST_TEST(touching < 300);  // and most agents are clear of every wall
+        const Touching touching = checkWalls(threads);
+        BOOST_TEST(touching.agents == 0);  // the lattice keeps them apart: the walls alone
+        BOOST_TEST(touching.walls > 20, "threads " << threads << ": " << touching.walls << " touching a wall");
+        BOOST_TEST(touching.walls < 300);  // and most agents are clear of every wall
     }
 }
 
@@ -159,7 +147,7 @@ BOOST_AUTO_TEST_CASE(contact_of_a_packed_cluster_is_the_sum_over_every_overlap) 
     for (const int path : {0, 1}) {
         if (!setNearEntriesPath(path)) continue;
         for (const int threads : {1, 2}) {
-            const int touching = checkPackedCluster(threads);
+            const int touching = checkPackedCluster(threads).agents;
             BOOST_TEST(touching > 100, "path " << path << " threads " << threads << ": " << touching << " touching");
         }
     }
