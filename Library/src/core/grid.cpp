@@ -359,11 +359,7 @@ void SegmentGrid::prepare(double range) {
     // at least each coordinate's), and the margin covers the rounding of the distance test.
     std::vector<Box> boxes;
     boxes.reserve(segments_->size());
-    for (const Segment& s : *segments_) {
-        const Box b(s.a, s.b);
-        const double scale = std::max({std::abs(b.lo.x()), std::abs(b.hi.x()), std::abs(b.lo.y()), std::abs(b.hi.y())});
-        boxes.push_back(b.grown(range + 1e-6 + 1e-9 * scale));
-    }
+    for (const Segment& s : *segments_) boxes.push_back(Box(s.a, s.b).grownPastRounding(range));
     // Cells of a quarter of the range: a list holds the segments within about 1.1 range of p,
     // where the cells round p would hold those within 1.4 range and more than one cell each.
     Ranged g{range, {}};

@@ -21,11 +21,7 @@ World::World(const WorldSpec& spec, const std::vector<ObstacleSpec>& obstacles)
         particles_.insert(particles_.end(), obstacles_[o].particles.begin(), obstacles_[o].particles.end());
         // pointInPolygon interpolates its crossings, so a point it finds inside may lie a few
         // rounding errors to the right of the vertices' bounds: the margin keeps it in the box.
-        if (n >= 3) {
-            const Box b = Box::around(pts);
-            const double scale = std::max({std::abs(b.lo.x()), std::abs(b.hi.x()), std::abs(b.lo.y()), std::abs(b.hi.y())});
-            polygonBounds_[o] = b.grown(1e-6 + 1e-9 * scale);
-        }
+        if (n >= 3) polygonBounds_[o] = Box::around(pts).grownPastRounding(0.0);
     }
     // Walls are queried with radii of about an agent radius up to a few metres.
     segmentGrid_.build(segments_, 2.0);

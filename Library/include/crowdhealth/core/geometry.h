@@ -4,6 +4,7 @@
 #include "crowdhealth/core/types.h"
 
 #include <algorithm>
+#include <cmath>
 #include <vector>
 
 namespace ch {
@@ -39,6 +40,13 @@ struct Box {
         b.lo = lo - Vec2(m, m);
         b.hi = hi + Vec2(m, m);
         return b;
+    }
+    /// The box widened by m and by a margin for rounding (1e-6 m plus 1e-9 of its largest
+    /// coordinate), so a point that an interpolating test puts inside, or a distance test puts
+    /// within m, is never a few ulps outside.
+    Box grownPastRounding(double m) const {
+        const double scale = std::max({std::abs(lo.x()), std::abs(hi.x()), std::abs(lo.y()), std::abs(hi.y())});
+        return grown(m + 1e-6 + 1e-9 * scale);
     }
     bool contains(const Vec2& p) const { return p.x() >= lo.x() && p.x() <= hi.x() && p.y() >= lo.y() && p.y() <= hi.y(); }
     /// True when the two boxes share a point (touching counts).

@@ -167,7 +167,6 @@ public:
     /// one per box (a few huge shapes over a large venue). Empty boxes and boxes with a coordinate
     /// that is not finite are not listed.
     void build(const std::vector<Box>& boxes, double cellSize);
-    bool empty() const { return cellStart_.empty(); }
     /// The cells [x0, x1] × [y0, y1] that `box` touches, clamped to the grid (x0 > x1 or y0 > y1:
     /// none). `box` must have finite bounds, or be empty.
     struct Cells {
