@@ -288,6 +288,34 @@ BOOST_AUTO_TEST_CASE(segment_grid_readied_for_a_range_matches_brute_force) {
         }
 }
 
+BOOST_AUTO_TEST_CASE(segment_grid_readied_lists_drop_and_keep_whole_cells_exactly) {
+    // prepare(range) drops from a cell's list the segments beyond range of the whole cell and
+    // marks those within range of all of it, which a query of radius = range then takes without
+    // a test. Every point of a fine lattice (many per cell, so both sides of each cell's limits)
+    // must still get exactly the segments within the radius, here and far from the origin, where
+    // the rounding margins are larger.
+    for (const Vec2 shift : {Vec2(0, 0), Vec2(1e5, -3e5)}) {
+        Rng rng(11);
+        std::vector<Segment> segs = randomSegments(rng, 60, 10, 4);
+        segs.push_back(Segment{Vec2(-12, 9), Vec2(12, 9.5), 60});  // a long wall
+        for (Segment& s : segs) s.a += shift, s.b += shift;
+        SegmentGrid grid;
+        grid.build(segs, 2.0);
+        grid.prepare(5.0);
+        grid.prepare(2.0);
+        std::vector<int> got;
+        for (double y = -17; y <= 17; y += 0.0625)
+            for (double x = -17; x <= 17; x += 0.0625) {
+                const Vec2 p = shift + Vec2(x, y);
+                for (const double r : {5.0, 4.5, 2.0, 1.6}) {
+                    grid.near(p, r, got);
+                    BOOST_TEST_REQUIRE(got == segmentsWithin(segs, p, r),
+                                       "r " << r << " at (" << x << ", " << y << ") + shift " << shift.x());
+                }
+            }
+    }
+}
+
 BOOST_AUTO_TEST_CASE(segment_clearance_is_a_close_lower_bound) {
     // SegmentGrid::near answers "nothing within radius" from a raster of lower bounds of the
     // distance to the walls without scanning: the bound must never exceed the true distance (or

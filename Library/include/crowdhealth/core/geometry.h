@@ -4,6 +4,9 @@
 #include "crowdhealth/core/types.h"
 
 #include <algorithm>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 #include <cmath>
 #include <vector>
 
@@ -55,13 +58,25 @@ struct Box {
     }
 };
 
+/// std::clamp(v, 0.0, 1.0), bit for bit (NaN and −0 pass through), without a branch: GCC turns
+/// the clamp's first test into a jump, which the random sides of walls near a crowd mispredict
+/// (issue 20; SegmentGrid::near tests ~40 walls per agent among many obstacles).
+inline double clampUnit(double v) {
+#if defined(__SSE2__)
+    // maxsd a, b = a > b ? a : b and minsd a, b = a < b ? a : b: the clamp's two tests.
+    const __m128d t = _mm_max_sd(_mm_setzero_pd(), _mm_set_sd(v));
+    return _mm_cvtsd_f64(_mm_min_sd(_mm_set_sd(1.0), t));
+#else
+    return std::clamp(v, 0.0, 1.0);
+#endif
+}
 /// Closest point to p on segment [a, b]. (Inline: the wall queries call it for every candidate
 /// wall of every agent, and a call kept each one's division from overlapping the next.)
 inline Vec2 closestPointOnSegment(const Vec2& p, const Vec2& a, const Vec2& b) {
     const Vec2 ab = b - a;
     const double len2 = ab.squaredNorm();
     if (len2 <= 0.0) return a;
-    const double t = std::clamp((p - a).dot(ab) / len2, 0.0, 1.0);
+    const double t = clampUnit((p - a).dot(ab) / len2);
     return a + t * ab;
 }
 /// Squared distance from p to segment [a, b].

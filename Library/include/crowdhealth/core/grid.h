@@ -189,6 +189,26 @@ public:
         return x == std::max(c.x0, scan.x0) && y == std::max(c.y0, scan.y0);
     }
     double cellSize() const { return cell_; }
+    /// The value rewrite() drops.
+    static constexpr int kDrop = std::numeric_limits<int>::min();
+    /// Rewrites every cell's list in place, in its order: entry k becomes f(k, cell) (cell: the
+    /// cell's area, a point p of which has at(p) give this list, up to rounding), or leaves the
+    /// list when f gives kDrop. cellsOf and firstAt still describe the lists as built.
+    template <class F>
+    void rewrite(F&& f) {
+        std::size_t n = 0, from = 0;
+        for (int y = 0; y < ny_; ++y)
+            for (int x = 0; x < nx_; ++x) {
+                const std::size_t c = static_cast<std::size_t>(y) * static_cast<std::size_t>(nx_) + static_cast<std::size_t>(x);
+                const Box area(origin_ + cell_ * Vec2(x, y), origin_ + cell_ * Vec2(x + 1, y + 1));
+                const std::size_t to = static_cast<std::size_t>(cellStart_[c + 1]);
+                cellStart_[c] = static_cast<int>(n);
+                for (; from < to; ++from)
+                    if (const int v = f(items_[from], area); v != kDrop) items_[n++] = v;
+            }
+        if (!cellStart_.empty()) cellStart_.back() = static_cast<int>(n);
+        items_.resize(n);
+    }
 
 private:
     double cell_ = 1;
@@ -232,7 +252,10 @@ private:
     BoxIndex cells_;  ///< each segment's bounding box
     struct Ranged {
         double range;
-        BoxIndex index;  ///< each segment's bounding box widened by `range` (and a rounding margin)
+        /// Each segment whose bounding box widened by `range` (and a rounding margin) touches the
+        /// cell, less those beyond range of every point of the cell; those within range of every
+        /// point of it are listed as ~k (negative).
+        BoxIndex index;
     };
     std::vector<Ranged> ranged_;
     Vec2 clearOrigin_{0, 0};
