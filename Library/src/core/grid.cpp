@@ -340,12 +340,21 @@ void SegmentGrid::buildClearance(const Vec2& lo, const Vec2& hi) {
             clearNx_ = clearNy_ = 0;
             return;
         }
-        const CellRange r = cellRange(Box(s.a, s.b).grown(reach), from, cell, clearNx_, clearNy_);
+        const Box box(s.a, s.b);
+        const CellRange r = cellRange(box.grown(reach), from, cell, clearNx_, clearNy_);
         for (int y = r.y0; y <= r.y1; ++y)
             for (int x = r.x0; x <= r.x1; ++x) {
                 const Vec2 centre = from + Vec2((x + 0.5) * cell, (y + 0.5) * cell);
-                const float bound = below(std::sqrt(distanceToSegmentSquared(centre, s.a, s.b)) - slack);
                 float& m = clear_[static_cast<std::size_t>(y) * clearNx_ + x];
+                // The segment is at least as far as its bounding box: where that is already
+                // farther than m + slack (with room for rounding), the bound below could not be
+                // less than m. Most cells near many walls pass here (issue 20: a forest of 2,500
+                // pillars spent 9 % of a 10 s run on this raster).
+                const double dx = std::max({box.lo.x() - centre.x(), 0.0, centre.x() - box.hi.x()});
+                const double dy = std::max({box.lo.y() - centre.y(), 0.0, centre.y() - box.hi.y()});
+                const double limit = static_cast<double>(m) + slack;
+                if (dx * dx + dy * dy > limit * limit * (1 + 1e-9)) continue;
+                const float bound = below(std::sqrt(distanceToSegmentSquared(centre, s.a, s.b)) - slack);
                 if (bound < m) m = bound;
             }
     }
