@@ -15,6 +15,10 @@ class World {
 public:
     World() = default;
     World(const WorldSpec& spec, const std::vector<ObstacleSpec>& obstacles);
+    /// Not copied or moved: its wall and particle grids point into its own vectors, which a copy
+    /// would leave pointing into the original (and a move, into the emptied one).
+    World(const World&) = delete;
+    World& operator=(const World&) = delete;
 
     WorldType type() const { return spec_.type; }
     const WorldSpec& spec() const { return spec_; }
