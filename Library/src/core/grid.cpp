@@ -383,8 +383,10 @@ void SegmentGrid::prepare(double range) {
     g.index.rewrite([&](int k, const Box& cell) {
         const Vec2 c = 0.5 * (cell.lo + cell.hi);
         const double h = 0.5 * (cell.hi - cell.lo).norm();
-        const double margin = 1e-6 + 1e-9 * (std::max(std::abs(c.x()), std::abs(c.y())) + h + range);
         const Segment& s = segs[static_cast<std::size_t>(k)];
+        const double scale = std::max({std::abs(c.x()), std::abs(c.y()), std::abs(s.a.x()), std::abs(s.a.y()),
+                                       std::abs(s.b.x()), std::abs(s.b.y())});
+        const double margin = 1e-6 + 1e-9 * (scale + h + range);
         const double d = std::sqrt(distanceToSegmentSquared(c, s.a, s.b));
         if (d - h - margin > range) return BoxIndex::kDrop;
         return d + h + margin <= range ? ~k : k;
@@ -398,10 +400,10 @@ void SegmentGrid::near(const Vec2& p, double radius, std::vector<int>& out) cons
     for (const Ranged& g : ranged_) {
         if (!(radius <= g.range && radius >= 0.75 * g.range)) continue;
         const double r2 = radius * radius;
-        // Every candidate written, the count advanced for those within radius: about half of a
-        // list is beyond it, in no order a branch could predict (issue 20).
         // A list entry ~k (negative) is within range of the whole cell: taken without a test
-        // when the radius is the range.
+        // when the radius is the range. The others are written and the count advanced by the
+        // test's result: which of them are within the radius follows no order a branch could
+        // predict (issue 20).
         const bool whole = radius == g.range;
         const auto list = g.index.at(p);
         out.resize(list.size());
