@@ -291,9 +291,10 @@ BOOST_AUTO_TEST_CASE(segment_grid_readied_for_a_range_matches_brute_force) {
 BOOST_AUTO_TEST_CASE(segment_grid_readied_lists_drop_and_keep_whole_cells_exactly) {
     // prepare(range) drops from a cell's list the segments beyond range of the whole cell and
     // marks those within range of all of it, which a query of radius = range then takes without
-    // a test. Every point of a fine lattice (many per cell, so both sides of each cell's limits)
-    // must still get exactly the segments within the radius, here and far from the origin, where
-    // the rounding margins are larger.
+    // a test. Every point of a fine lattice (ten per cell side at 5 m, so both sides of each
+    // cell's limits) must still get exactly the segments within the radius, here and far from
+    // the origin, where the rounding margins are larger. (One check per scene: some 400,000
+    // queries, which Boost.Test's checks one by one would slow tenfold under the sanitizers.)
     for (const Vec2 shift : {Vec2(0, 0), Vec2(1e5, -3e5)}) {
         Rng rng(11);
         std::vector<Segment> segs = randomSegments(rng, 60, 10, 4);
@@ -304,15 +305,19 @@ BOOST_AUTO_TEST_CASE(segment_grid_readied_lists_drop_and_keep_whole_cells_exactl
         grid.prepare(5.0);
         grid.prepare(2.0);
         std::vector<int> got;
-        for (double y = -17; y <= 17; y += 0.0625)
-            for (double x = -17; x <= 17; x += 0.0625) {
+        int wrong = 0;
+        std::string first;
+        for (double y = -16; y <= 16; y += 0.125)
+            for (double x = -16; x <= 16; x += 0.125) {
                 const Vec2 p = shift + Vec2(x, y);
-                for (const double r : {5.0, 4.5, 2.0, 1.6}) {
+                for (const double r : {5.0, 4.5, 2.0}) {
                     grid.near(p, r, got);
-                    BOOST_TEST_REQUIRE(got == segmentsWithin(segs, p, r),
-                                       "r " << r << " at (" << x << ", " << y << ") + shift " << shift.x());
+                    if (got == segmentsWithin(segs, p, r)) continue;
+                    if (wrong++ == 0)
+                        first = "r " + std::to_string(r) + " at (" + std::to_string(x) + ", " + std::to_string(y) + ")";
                 }
             }
+        BOOST_TEST(wrong == 0, "shift " << shift.x() << ": first wrong answer " << first);
     }
 }
 
