@@ -11,6 +11,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <limits>
 #include <span>
 #include <vector>
@@ -286,6 +288,27 @@ BOOST_AUTO_TEST_CASE(segment_grid_readied_for_a_range_matches_brute_force) {
             grid.near(p, r, got);
             BOOST_TEST(got == segmentsWithin(segs, p, r), "r " << r << " at (" << p.x() << ", " << p.y() << ")");
         }
+}
+
+BOOST_AUTO_TEST_CASE(clamp_unit_is_std_clamp_bit_for_bit_and_nearest_points_are_exact) {
+    // clampUnit replaces std::clamp(v, 0, 1) in every wall distance without a branch: it must give
+    // the same bits, signed zeros, infinities, NaN and the neighbours of 0 and 1 included.
+    const double inf = std::numeric_limits<double>::infinity(), tiny = std::numeric_limits<double>::denorm_min();
+    for (const double v : {-2.0, -1e-300, -tiny, -0.0, 0.0, tiny, 1e-300, 0.25, std::nextafter(1.0, 0.0), 1.0,
+                           std::nextafter(1.0, 2.0), 3.0, inf, -inf, std::nan("")}) {
+        const double got = clampUnit(v), want = std::clamp(v, 0.0, 1.0);
+        std::uint64_t a = 0, b = 0;
+        std::memcpy(&a, &got, sizeof a);
+        std::memcpy(&b, &want, sizeof b);
+        BOOST_TEST(a == b, "v = " << v << ": " << got << " against " << want);
+    }
+    // The nearest point: before the start, past the end, in between, and on a degenerate segment.
+    const Vec2 a(1, 1), b(5, 1);
+    BOOST_TEST((closestPointOnSegment(Vec2(-2, 3), a, b) - a).norm() == 0.0);
+    BOOST_TEST((closestPointOnSegment(Vec2(9, -4), a, b) - b).norm() == 0.0);
+    BOOST_TEST((closestPointOnSegment(Vec2(2, 7), a, b) - Vec2(2, 1)).norm() == 0.0);
+    BOOST_TEST(distanceToSegmentSquared(Vec2(2, 7), a, b) == 36.0);
+    BOOST_TEST(distanceToSegmentSquared(Vec2(4, 5), a, a) == 25.0);
 }
 
 BOOST_AUTO_TEST_CASE(segment_grid_readied_lists_drop_and_keep_whole_cells_exactly) {
