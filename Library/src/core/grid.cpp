@@ -233,6 +233,7 @@ void BoxIndex::build(const std::vector<Box>& boxes, double cellSize) {
     if (bounds.empty()) return;
     origin_ = bounds.lo;
     cell_ = cellSize > 0 ? cellSize : 1.0;
+    inverse_ = 1.0 / cell_;
     // Few entries per box unless a box is far larger than the cells: then coarser cells.
     const long long maxItems = (1LL << 22) + static_cast<long long>(boxes.size());
     for (;;) {
@@ -245,6 +246,7 @@ void BoxIndex::build(const std::vector<Box>& boxes, double cellSize) {
         }
         if (items <= maxItems || (nx_ == 1 && ny_ == 1)) break;
         cell_ *= 2;
+        inverse_ = 1.0 / cell_;
     }
     // One array with per-cell offsets, in two passes (count, then fill in box order).
     boxCells_.assign(boxes.size(), Cells{0, -1, 0, -1});
@@ -267,22 +269,8 @@ void BoxIndex::build(const std::vector<Box>& boxes, double cellSize) {
 
 BoxIndex::Cells BoxIndex::cells(const Box& box) const {
     if (nx_ <= 0 || ny_ <= 0 || box.empty()) return {0, -1, 0, -1};
-    // The same expression for every coordinate (a box's corners and a point alike): it is
-    // monotone, so a point of a box falls in one of the box's cells. Limited to [-1, n] (NaN
-    // gives -1) before the cast, so far-flung coordinates are safe.
-    const double inv = 1.0 / cell_;
-    const auto at = [inv](double v, double o, int n) {
-        const double c = (v - o) * inv;
-        return !(c >= 0) ? -1 : (c >= n ? n : static_cast<int>(c));
-    };
-    return {std::max(0, at(box.lo.x(), origin_.x(), nx_)), std::min(nx_ - 1, at(box.hi.x(), origin_.x(), nx_)),
-            std::max(0, at(box.lo.y(), origin_.y(), ny_)), std::min(ny_ - 1, at(box.hi.y(), origin_.y(), ny_))};
-}
-
-std::span<const int> BoxIndex::at(const Vec2& p) const {
-    const Cells r = cells(Box(p, p));
-    if (r.x0 > r.x1 || r.y0 > r.y1) return {};
-    return at(r.x0, r.y0);
+    return {std::max(0, coordinate(box.lo.x(), origin_.x(), nx_)), std::min(nx_ - 1, coordinate(box.hi.x(), origin_.x(), nx_)),
+            std::max(0, coordinate(box.lo.y(), origin_.y(), ny_)), std::min(ny_ - 1, coordinate(box.hi.y(), origin_.y(), ny_))};
 }
 
 void SegmentGrid::build(const std::vector<Segment>& segments, double cellSize) {

@@ -179,7 +179,12 @@ public:
         return {items_.data() + cellStart_[c], static_cast<std::size_t>(cellStart_[c + 1] - cellStart_[c])};
     }
     /// The boxes listed in p's cell, ascending (none when p is off the grid or not finite).
-    std::span<const int> at(const Vec2& p) const;
+    /// Inline: the walls' lists of every agent at every step start here (issue 20).
+    std::span<const int> at(const Vec2& p) const {
+        const int x = coordinate(p.x(), origin_.x(), nx_), y = coordinate(p.y(), origin_.y(), ny_);
+        if (x < 0 || x >= nx_ || y < 0 || y >= ny_) return {};
+        return at(x, y);
+    }
     /// The cells box k is listed in (none for a box left out).
     const Cells& cellsOf(int k) const { return boxCells_[static_cast<std::size_t>(k)]; }
     /// True when a scan of the cells `scan` (row by row, y outer) meets box k first at (x, y):
@@ -211,7 +216,16 @@ public:
     }
 
 private:
+    /// The cell column (row) of coordinate v, limited to [-1, n] (NaN gives -1) before the cast,
+    /// so far-flung coordinates are safe. The same expression for every coordinate (a box's
+    /// corners and a point alike): it is monotone, so a point of a box falls in one of the box's
+    /// cells.
+    int coordinate(double v, double o, int n) const {
+        const double c = (v - o) * inverse_;
+        return !(c >= 0) ? -1 : (c >= n ? n : static_cast<int>(c));
+    }
     double cell_ = 1;
+    double inverse_ = 1;  ///< 1 / cell_
     Vec2 origin_{0, 0};
     int nx_ = 0, ny_ = 0;
     std::vector<Cells> boxCells_;
