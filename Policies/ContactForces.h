@@ -26,6 +26,7 @@ public:
     static ComponentInfo Info();
 
     void prepare(const StepContext& ctx) override;
+    bool readsQueryAgents() const override { return false; }  ///< its sums run in prepare()
     Vec2 acceleration(const AgentQuery& q, const StepContext& ctx) const override;
     void remapAgents(const std::vector<int>& previous) override;
     const std::vector<Vec2>* contactField() const override { return &accel_; }

@@ -13,7 +13,8 @@ class GoalReachingForce : public ForceComponent {
 public:
     explicit GoalReachingForce(const ParamSet& params);
     static ComponentInfo Info();
-    bool readsStepLists() const override { return false; }  ///< only q.agents, q.segments
+    bool readsStepLists() const override { return false; }  ///< only the query
+    bool readsQueryAgents() const override { return false; }
     Vec2 acceleration(const AgentQuery& q, const StepContext& ctx) const override;
 
 private:

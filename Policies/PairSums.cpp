@@ -51,17 +51,17 @@ struct IndexedEntries {
 };
 
 /// SPH, the reference: one pair after the other, each skipped or added as the model says.
-CH_PAIRS_NO_CONTRACT
-Vec2 sphScalar(const SphInput& in) {
+template <class List>
+CH_PAIRS_NO_CONTRACT Vec2 sphScalar(const SphInput& in, const List& list) {
     double ax = 0, ay = 0;
     for (std::size_t k = 0; k < in.count; ++k) {
-        const NeighbourAgent& nb = in.entries[k];
-        const double x = nb.offset.x(), y = nb.offset.y();
+        const Entry nb = list[k];
+        const double x = nb.x, y = nb.y;
         const double d2 = x * x + y * y;  // NeighbourAgent::distanceSquared()
         if (d2 >= in.h2) continue;
         const double r = std::sqrt(d2);
         if (r < 1e-12) continue;
-        const std::size_t j = static_cast<std::size_t>(nb.index);
+        const std::size_t j = nb.j;
         const double rhoJ = in.density[j];
         if (!(rhoJ > 0)) continue;
         if (in.pushes) {
@@ -176,8 +176,8 @@ struct IndexedLanes {
 /// test set to +0. The terms are then added in list order. Adding +0 leaves a sum unchanged bit for bit: the sums
 /// start at +0 and a sum of doubles rounded to nearest is never −0 unless both addends are, so
 /// no sum here is ever −0 and s + 0 = s.
-CH_PAIRS_AVX512 CH_PAIRS_NO_CONTRACT
-Vec2 sphAvx512(const SphInput& in) {
+template <class Lanes>
+CH_PAIRS_AVX512 CH_PAIRS_NO_CONTRACT Vec2 sphAvx512(const SphInput& in, const Lanes& list) {
     const __m512d h = _mm512_set1_pd(in.h), h2 = _mm512_set1_pd(in.h2);
     const __m512d cS = _mm512_set1_pd(in.cS), cV = _mm512_set1_pd(in.cV);
     const __m512d pI = _mm512_set1_pd(in.pressureI), two = _mm512_set1_pd(2.0);
@@ -189,10 +189,10 @@ Vec2 sphAvx512(const SphInput& in) {
     const double* velocity = reinterpret_cast<const double*>(in.velocity);
     alignas(64) double tx[8], ty[8], ux[8], uy[8];
     double ax = 0, ay = 0;
-    prefetchFollowing(in.entries, in.count);
+    list.prefetch(in.count);
     for (std::size_t k = 0; k < in.count; k += 8) {
         const std::size_t left = in.count - k < 8 ? in.count - k : 8;
-        const lanes::Entries8 g = lanes::load8<true>(in.entries + k, left);
+        const lanes::Entries8 g = list(k, left);
         const __mmask8 live = g.live;
         const __m512d x = g.x, y = g.y;
         const __m512d d2 = _mm512_add_pd(_mm512_mul_pd(x, x), _mm512_mul_pd(y, y));
@@ -365,10 +365,13 @@ std::atomic<int> gPath{cpuRuns(1) ? 1 : 0};
 }  // namespace
 
 Vec2 sphForce(const SphInput& in) {
+    const IndexList& b = in.byIndex;
 #ifdef CH_PAIRS_X86
-    if (gPath.load(std::memory_order_relaxed) == 1) return sphAvx512(in);
+    if (gPath.load(std::memory_order_relaxed) == 1)
+        return b.indices != nullptr ? sphAvx512(in, indexedLanes(b)) : sphAvx512(in, WholeLanes{in.entries});
 #endif
-    return sphScalar(in);
+    return b.indices != nullptr ? sphScalar(in, IndexedEntries{b.indices, b.positions, b.origin})
+                                : sphScalar(in, WholeEntries{in.entries});
 }
 
 double sphDensity(const DensityInput& in) {

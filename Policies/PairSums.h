@@ -31,6 +31,7 @@ struct IndexList {
 /// constants (SPH.cpp's SphKernels: spiky gradient cS (h − r)², viscosity Laplacian cV (h − r)).
 struct SphInput {
     const NeighbourAgent* entries = nullptr;  ///< agent i's neighbour list
+    IndexList byIndex;                        ///< or the stored list by index (then entries is unread)
     std::size_t count = 0;
     const double* mass = nullptr;      ///< m_j, by agent index
     const double* density = nullptr;   ///< ρ_j
@@ -78,7 +79,7 @@ struct ContactInput {
 /// (not yet divided by the mass).
 Vec2 contactForce(const ContactInput& in);
 
-/// Points a sum's input (DensityInput, ContactInput) at agent i's list of the agents within
+/// Points a sum's input (SphInput, DensityInput, ContactInput) at agent i's list of the agents within
 /// `radius`: the step's stored list by index where it reaches that far in a plane world (no copy:
 /// the sum computes the offsets), else StepContext::neighbourList's entries in `scratch`. Either
 /// way the sum sees the same entries, offsets and order.

@@ -21,7 +21,8 @@ class RandomFunction : public Component {
 public:
     explicit RandomFunction(const ParamSet& params);
     static ComponentInfo Info();
-    bool readsStepLists() const override { return false; }  ///< only q.agents, q.segments
+    bool readsStepLists() const override { return false; }  ///< only the query
+    bool readsQueryAgents() const override { return false; }
     double cost(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const override;
     Vec2 gradient(const Vec2& v, const AgentQuery& q, const StepContext& ctx) const override;
 };

@@ -216,12 +216,17 @@ Vec2 SPH::acceleration(const AgentQuery& q, const StepContext& ctx) const {
     const double rhoI = density_[i], pI = pressure_[i];
     const bool pressure = pI > 0;  // absolute pressure: only a compressed agent is pushed
 
-    // The pairs (PairSums.h: eight at a time where the CPU has AVX-512, the same bits either way).
+    // The pairs (PairSums.h: eight at a time where the CPU has AVX-512, the same bits either way),
+    // over the step's stored list by index: q.agents is left unread (readsQueryAgents), so the
+    // simulation need not compute its offsets. Where the stored list does not reach h, or the
+    // world is periodic, the entries within h are gathered into per-thread scratch; either way
+    // the sum has the bits of one over q.agents (the same entries in the same order, at most
+    // without some beyond h, whose terms are skipped).
     Vec2 a(0, 0);
     if (pressure || viscosity_ > 0) {
+        thread_local std::vector<NeighbourAgent> scratch;
         pairs::SphInput in;
-        in.entries = q.agents.data();
-        in.count = q.agents.size();
+        pairs::setList(in, ctx, i, h, scratch);
         in.mass = A.mass.data();
         in.density = density_.data();
         in.pressure = pressure_.data();

@@ -43,6 +43,7 @@ public:
     static ComponentInfo Info();
 
     void prepare(const StepContext& ctx) override;
+    bool readsQueryAgents() const override { return false; }  ///< the step's lists, by index
     Vec2 acceleration(const AgentQuery& q, const StepContext& ctx) const override;
     void remapAgents(const std::vector<int>& previous) override;
     /// "density", "rest_density" (ρ0_i, after the clamp) or "pressure", per agent.

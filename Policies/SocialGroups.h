@@ -33,7 +33,8 @@ class SocialGroups : public ForceComponent {
 public:
     explicit SocialGroups(const ParamSet& params);
     static ComponentInfo Info();
-    bool readsStepLists() const override { return false; }  ///< only q.agents, q.segments
+    bool readsStepLists() const override { return false; }  ///< only the query and the agents' store
+    bool readsQueryAgents() const override { return false; }
     void prepare(const StepContext& ctx) override;
     Vec2 acceleration(const AgentQuery& q, const StepContext& ctx) const override;
 

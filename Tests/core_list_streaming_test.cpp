@@ -10,8 +10,10 @@
 
 #include "test_support.h"
 
+#include <atomic>
 #include <cstring>
 #include <random>
+#include <string>
 #include <tuple>
 
 using namespace ch;
@@ -146,4 +148,111 @@ BOOST_AUTO_TEST_CASE(step_context_helpers_read_the_stored_index_lists_as_the_gri
         BOOST_TEST(!onGrid.listReaches(i, 1.0));
         BOOST_TEST(onGrid.neighbourList(i, 1.0, fromGrid).size() == b.size());
     }
+}
+
+namespace {
+
+/// Reads AgentQuery::agents and adds nothing: with it in a policy, the simulation must gather
+/// each agent's neighbours (Component::readsQueryAgents, true by default). It counts what it saw.
+std::atomic<long> gProbeSeen{0};
+class QueryProbe : public ForceComponent {
+public:
+    explicit QueryProbe(const ParamSet& params) { bind(params, "range", range_); }
+    bool readsStepLists() const override { return false; }
+    bool readsQueryAgents() const override { return true; }
+    Vec2 acceleration(const AgentQuery& q, const StepContext&) const override {
+        gProbeSeen += static_cast<long>(q.agents.size());
+        return Vec2(0, 0);
+    }
+};
+
+void registerProbe() {
+    static const bool once = [] {
+        ComponentInfo info;
+        info.name = "QueryAgentsProbeForTests";
+        info.kind = ComponentKind::Force;
+        info.summary = "test only";
+        info.defaultRange = 0;
+        info.create = [](const ParamSet& p) -> std::unique_ptr<Component> { return std::make_unique<QueryProbe>(p); };
+        return Registry::instance().add(info);
+    }();
+    (void)once;
+}
+
+/// A dense SPH crowd (about 4 P/m²) pressed against a wall with a pillar: GoalReachingForce, SPH,
+/// SocialGroups and ContactForces (the built-in components that say they read no
+/// AgentQuery::agents), or UMANS' contact instead of ContactForces when `umans`, with the probe
+/// first when `probe`. `world` plane or torus.
+ScenarioSpec pressed(bool probe, WorldType world, bool umans) {
+    std::mt19937_64 rng(7);
+    std::uniform_real_distribution<double> jitter(-0.05, 0.05), radius(0.22, 0.26);
+    std::vector<AgentSpec> agents;
+    std::vector<std::string> groups;
+    for (int k = 0; k < 400; ++k) {
+        const Vec2 p(-6.0 + 0.5 * (k % 20) + jitter(rng), -5.0 + 0.5 * (k / 20) + jitter(rng));
+        AgentSpec a = test::agent(static_cast<AgentId>(k), p, Vec2(30.0, p.y() * 0.2), radius(rng), 1.3, 1.6);
+        if (k % 7 < 3) {  // groups of three, numbered by their first member
+            if (k % 7 == 0) groups.push_back("g" + std::to_string(k / 7));
+            a.group = groups.back();
+            a.groupIndex = static_cast<int>(groups.size()) - 1;
+        }
+        agents.push_back(a);
+    }
+    std::vector<ComponentSpec> c;
+    if (probe) c.push_back(test::component("QueryAgentsProbeForTests"));
+    c.push_back(test::component("GoalReachingForce", {{"range", 0}}));
+    c.push_back(test::component("SPH", {{"range", 1}}));
+    if (!umans) c.push_back(test::component("ContactForces", {{"range", 1}}));
+    c.push_back(test::component("SocialGroups"));
+    ScenarioSpec spec = test::scenario(agents, {test::policy(0, OptimisationMethod::Gradient, c, 0.0, {},
+                                                             StepTiming::Coarse, umans ? 62.5 : 0.0)},
+                                       0.05, 60.0);
+    spec.groups = groups;
+    if (world == WorldType::Toric) {
+        spec.world.type = WorldType::Toric;
+        spec.world.width = 24;
+        spec.world.height = 16;
+    }
+    ObstacleSpec wall, pillar;
+    wall.points = {{5, -7.5}, {5.5, -7.5}, {5.5, 7.5}, {5, 7.5}};
+    pillar.points = {{1, -0.5}, {2, -0.5}, {2, 0.5}, {1, 0.5}};
+    spec.obstacles = {wall, pillar};
+    return spec;
+}
+
+}  // namespace
+
+BOOST_AUTO_TEST_CASE(neighbours_withheld_from_components_that_do_not_read_them_change_nothing) {
+    // SPH, ContactForces, GoalReachingForce and SocialGroups say their per-agent calls read no
+    // AgentQuery::agents, so a policy of only those gets none (the simulation skips computing
+    // every list entry's offset). A component that does read them, added to the policy and
+    // adding nothing, makes the simulation gather them again: the run must be the same, bit for
+    // bit. A component that said so but read q.agents would see empty lists in one run only.
+    registerProbe();
+    for (const char* name : {"SPH", "ContactForces", "GoalReachingForce", "SocialGroups", "RandomFunction"})
+        BOOST_TEST(!test::make(name)->readsQueryAgents(), name);
+    for (const char* name : {"SocialForcesAvoidance", "TtcaDca", "ORCA", "VanToll"}) BOOST_TEST(test::make(name)->readsQueryAgents(), name);
+    BOOST_TEST(Silent().readsQueryAgents());  // a plugin that does not say gets its neighbours
+    for (const bool umans : {false, true})
+    for (const WorldType world : {WorldType::Infinite, WorldType::Toric})
+        for (const int threads : {1, 2}) {
+            Simulation without(pressed(false, world, umans)), with(pressed(true, world, umans));
+            without.setThreads(threads);
+            with.setThreads(threads);
+            gProbeSeen = 0;
+            double pressure = 0;
+            for (int step = 0; step < 30; ++step) {
+                without.stepCoarse();
+                with.stepCoarse();
+                const AgentStore &a = without.agents(), &b = with.agents();
+                BOOST_TEST_REQUIRE(a.size() == b.size());
+                BOOST_TEST_REQUIRE(sameBits(a.pos, b.pos), "positions differ at step " << step << ", " << threads << " threads");
+                BOOST_TEST_REQUIRE(sameBits(a.vel, b.vel), "velocities differ at step " << step << ", " << threads << " threads");
+                for (const Vec2& v : a.contactAccel) pressure = std::max(pressure, v.norm());
+            }
+            // The probe saw the neighbours (so they were gathered for it), and the crowd is dense
+            // enough that bodies touch (ContactForces' or UMANS' contact acts).
+            BOOST_TEST(gProbeSeen.load() > 400L * 30 * 8);
+            BOOST_TEST(pressure > 0.0);
+        }
 }

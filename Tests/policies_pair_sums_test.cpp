@@ -275,7 +275,7 @@ BOOST_AUTO_TEST_CASE(contact_force_looks_no_farther_than_asked) {
 }
 
 BOOST_AUTO_TEST_CASE(sums_over_a_stored_list_by_index_have_the_bits_of_its_whole_entries) {
-    // NeighbourLists stores indices; SPH's density and ContactForces read them through
+    // NeighbourLists stores indices; SPH's density and force and ContactForces read them through
     // pairs::IndexList, computing each offset p_j − p_i themselves. The same list as whole entries
     // (offsets computed the same way) must give the same bits, in every build, at every length.
     RestorePath restore;
@@ -286,7 +286,7 @@ BOOST_AUTO_TEST_CASE(sums_over_a_stored_list_by_index_have_the_bits_of_its_whole
     std::vector<Vec2> pos;
     for (int j = 0; j < kAgents; ++j) pos.emplace_back(3.0 + 0.9 * u(rng), -2.0 + 0.9 * u(rng));
     pos[5] = pos[0];  // a neighbour at distance 0
-    int pushed = 0;
+    int pushed = 0, forced = 0;
     for (const int path : paths()) {
         BOOST_TEST_REQUIRE(pairs::setPath(path));
         for (const int n : lengths()) {
@@ -326,7 +326,34 @@ BOOST_AUTO_TEST_CASE(sums_over_a_stored_list_by_index_have_the_bits_of_its_whole
             const Vec2 b = pairs::contactForce(k);
             BOOST_TEST(sameBits(a, b), "path " << path << " n " << n << ": " << a.transpose() << " against " << b.transpose());
             pushed += a.squaredNorm() > 0;
+
+            // SPH's pressure and viscosity (read by index since issue 20's twenty-ninth round).
+            for (const double pI : {250.0, -30.0}) {
+                pairs::SphInput f;
+                f.count = entries.size();
+                f.mass = c.mass.data();
+                f.density = c.density.data();
+                f.pressure = c.pressure.data();
+                f.velocity = c.velocity.data();
+                f.h = 0.8;
+                f.h2 = 0.64;
+                f.cS = 4.0;
+                f.cV = 1.5;
+                f.pressureI = pI;
+                f.pushes = pI > 0;
+                f.viscosity = 0.8;
+                f.velocityI = Vec2(0.3, -0.7);
+                f.entries = entries.data();
+                const Vec2 fw = pairs::sphForce(f);
+                f.entries = nullptr;
+                f.byIndex = byIndex;
+                const Vec2 fi = pairs::sphForce(f);
+                BOOST_TEST(sameBits(fw, fi), "sph path " << path << " n " << n << " p_i " << pI << ": " << fw.transpose()
+                                                         << " against " << fi.transpose());
+                forced += fw.squaredNorm() > 0;
+            }
         }
     }
     BOOST_TEST(pushed > 20);  // the lists do touch agent i
+    BOOST_TEST(forced > 40);  // and the SPH sums are not all zero
 }

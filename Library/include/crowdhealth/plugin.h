@@ -24,7 +24,7 @@
 
 /// Bumped whenever the component interface (component.h, registry.h, params.h, the step's data)
 /// changes in a way that breaks compiled plugins within one CrowdHealth version.
-#define CROWDHEALTH_PLUGIN_INTERFACE 2  // 2: Component::readsStepLists (a new virtual)
+#define CROWDHEALTH_PLUGIN_INTERFACE 3  // 2: Component::readsStepLists, 3: Component::readsQueryAgents (new virtuals)
 
 #define CROWDHEALTH_PLUGIN_STR_INNER(x) #x
 #define CROWDHEALTH_PLUGIN_STR(x) CROWDHEALTH_PLUGIN_STR_INNER(x)

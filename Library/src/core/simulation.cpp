@@ -69,6 +69,14 @@ Simulation::Simulation(ScenarioSpec specIn)
         for (const PolicyStep& s : p.steps())
             for (const auto& e : s.components()) needStoredLists_ = needStoredLists_ || e.component->readsStepLists();
     storeLists_ = needStoredLists_;
+    // A policy whose components all read their neighbours elsewhere (SPH, ContactForces: the
+    // stored lists by index) gets no AgentQuery::agents, unless UMANS' contact reads them.
+    for (const Policy& p : policies_) {
+        bool reads = p.contactForceScale() > 0;
+        for (const PolicyStep& s : p.steps())
+            for (const auto& e : s.components()) reads = reads || e.component->readsQueryAgents();
+        queryAgents_.push_back(reads ? 1 : 0);
+    }
     // Per-agent step buffers that only some policies need (none is kept at a million agents
     // when nobody uses it: 16 bytes each per agent).
     for (const Policy& p : policies_) {
@@ -176,13 +184,13 @@ void Simulation::stepCoarse() {
     for (int k = 0; k < finePerCoarse_; ++k) stepFine();
 }
 
-void Simulation::gatherQuery(std::size_t i, AgentQuery& q, NeighbourLists::Scratch& scratch) const {
+void Simulation::gatherQuery(std::size_t i, AgentQuery& q, NeighbourLists::Scratch& scratch, bool agents) const {
     setQueryAgent(q, agents_, i);
     if (lists_.streaming()) {
         lists_.gather(i, scratch, q.agents, q.segments);
         return;
     }
-    q.agents = lists_.agents(i, scratch.agents);
+    q.agents = agents ? lists_.agents(i, scratch.agents) : std::span<const NeighbourAgent>{};
     q.segments = lists_.segments(i);
 }
 
@@ -439,7 +447,7 @@ void Simulation::evaluateAgents(bool coarseBoundary) {
         for (std::ptrdiff_t ii = 0; ii < static_cast<std::ptrdiff_t>(n); ++ii) {
             const std::size_t i = static_cast<std::size_t>(ii);
             const Policy& policy = policies_[agents_.policy[i]];
-            gatherQuery(i, q, scratch);
+            gatherQuery(i, q, scratch, queryAgents_[agents_.policy[i]] != 0);
 
             Vec2 fine(0, 0);
             Vec2 reported(0, 0);  // contact accelerations reported by components (contactField)

@@ -188,8 +188,10 @@ private:
     void integrate();
     void activatePending();
     /// Agent i's state and its neighbour lists of this step into q: views of the stored lists, or
-    /// (lists not stored) the lists gathered now into `scratch` (the calling thread's own).
-    void gatherQuery(std::size_t i, AgentQuery& q, NeighbourLists::Scratch& scratch) const;
+    /// (lists not stored) the lists gathered now into `scratch` (the calling thread's own). With
+    /// `agents` false and the lists stored, q.agents is left empty (no component of i's policy
+    /// reads it, Component::readsQueryAgents); q.segments is set either way.
+    void gatherQuery(std::size_t i, AgentQuery& q, NeighbourLists::Scratch& scratch, bool agents = true) const;
     void removeFinished();
     /// grid_'s cell size for a largest neighbourhood radius `range`: half of it for short ranges
     /// (< NeighbourLists::kFineGridFrom: SPH, contact), the range itself for long ones (whose
@@ -234,6 +236,7 @@ private:
     double gridCell_ = 1.0;                ///< grid_'s cell size (m): see stepGridCell()
     double maxRadius_ = 0;                 ///< largest agent radius (m)
     std::vector<double> policyRange_;      ///< neighbourhood radius per policy (m)
+    std::vector<unsigned char> queryAgents_;  ///< per policy: some component or its UMANS contact reads AgentQuery::agents
     std::vector<int> agentPolicy_;         ///< policy index per spec agent
 
     // per-step buffers (index = agent)
