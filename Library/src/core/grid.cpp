@@ -374,7 +374,7 @@ void SegmentGrid::prepare(double range) {
         const Segment& s = segs[static_cast<std::size_t>(k)];
         const double scale = std::max({std::abs(c.x()), std::abs(c.y()), std::abs(s.a.x()), std::abs(s.a.y()),
                                        std::abs(s.b.x()), std::abs(s.b.y())});
-        const double margin = 1e-6 + 1e-9 * (scale + h + range);
+        const double margin = Box::roundingMargin(scale + h + range);
         const double d = std::sqrt(distanceToSegmentSquared(c, s.a, s.b));
         if (d - h - margin > range) return BoxIndex::kDrop;
         return d + h + margin <= range ? ~k : k;

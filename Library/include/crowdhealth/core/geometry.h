@@ -49,8 +49,11 @@ struct Box {
     /// within m, is never a few ulps outside.
     Box grownPastRounding(double m) const {
         const double scale = std::max({std::abs(lo.x()), std::abs(hi.x()), std::abs(lo.y()), std::abs(hi.y())});
-        return grown(m + 1e-6 + 1e-9 * scale);
+        return grown(m + roundingMargin(scale));
     }
+    /// What a distance or inside test among coordinates of size `scale` (m) may be off by,
+    /// with room to spare: 1 µm plus 1e-9 of the scale.
+    static double roundingMargin(double scale) { return 1e-6 + 1e-9 * scale; }
     bool contains(const Vec2& p) const { return p.x() >= lo.x() && p.x() <= hi.x() && p.y() >= lo.y() && p.y() <= hi.y(); }
     /// True when the two boxes share a point (touching counts).
     bool overlaps(const Box& o) const {
