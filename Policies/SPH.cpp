@@ -218,10 +218,11 @@ Vec2 SPH::acceleration(const AgentQuery& q, const StepContext& ctx) const {
 
     // The pairs (PairSums.h: eight at a time where the CPU has AVX-512, the same bits either way),
     // over the step's stored list by index: q.agents is left unread (readsQueryAgents), so the
-    // simulation need not compute its offsets. Where the stored list does not reach h, or the
-    // world is periodic, the entries within h are gathered into per-thread scratch; either way
-    // the sum has the bits of one over q.agents (the same entries in the same order, at most
-    // without some beyond h, whose terms are skipped).
+    // simulation need not compute its offsets. In a periodic world the stored list's entries are
+    // written into per-thread scratch as q.agents had them (StepContext::neighbourList), and
+    // where no stored list reaches h (components called outside a step) the grid's agents within
+    // h are. With the step's lists either way is the sum over q.agents, to the bit: the same
+    // entries, offsets and order.
     Vec2 a(0, 0);
     if (pressure || viscosity_ > 0) {
         thread_local std::vector<NeighbourAgent> scratch;
