@@ -56,6 +56,23 @@ bool sameBits(const std::vector<Vec2>& a, const std::vector<Vec2>& b) {
     return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(Vec2)) == 0;
 }
 
+/// Steps both simulations `steps` coarse steps, requiring the same positions, velocities and
+/// contact accelerations, bit for bit, after each; returns the largest contact acceleration seen.
+double stepAlike(Simulation& a, Simulation& b, int steps, int threads) {
+    double contact = 0;
+    for (int step = 0; step < steps; ++step) {
+        a.stepCoarse();
+        b.stepCoarse();
+        const AgentStore &x = a.agents(), &y = b.agents();
+        BOOST_TEST_REQUIRE(x.size() == y.size());
+        BOOST_TEST_REQUIRE(sameBits(x.pos, y.pos), "positions differ at step " << step << ", " << threads << " threads");
+        BOOST_TEST_REQUIRE(sameBits(x.vel, y.vel), "velocities differ at step " << step << ", " << threads << " threads");
+        BOOST_TEST_REQUIRE(sameBits(x.contactAccel, y.contactAccel), "contacts differ at step " << step);
+        for (const Vec2& c : x.contactAccel) contact = std::max(contact, c.norm());
+    }
+    return contact;
+}
+
 }  // namespace
 
 BOOST_AUTO_TEST_CASE(gathered_lists_give_the_bits_of_stored_ones) {
@@ -66,17 +83,7 @@ BOOST_AUTO_TEST_CASE(gathered_lists_give_the_bits_of_stored_ones) {
         BOOST_TEST(stored.storesNeighbourLists());
         gathered.setThreads(threads);
         stored.setThreads(threads);
-        double contact = 0;
-        for (int step = 0; step < 40; ++step) {
-            gathered.stepCoarse();
-            stored.stepCoarse();
-            const AgentStore &a = gathered.agents(), &b = stored.agents();
-            BOOST_TEST_REQUIRE(a.size() == b.size());
-            BOOST_TEST_REQUIRE(sameBits(a.pos, b.pos), "positions differ at step " << step << ", " << threads << " threads");
-            BOOST_TEST_REQUIRE(sameBits(a.vel, b.vel), "velocities differ at step " << step << ", " << threads << " threads");
-            BOOST_TEST_REQUIRE(sameBits(a.contactAccel, b.contactAccel));
-            for (const Vec2& c : a.contactAccel) contact = std::max(contact, c.norm());
-        }
+        const double contact = stepAlike(gathered, stored, 40, threads);
         // The crowd does interact: agents moved, and some touched (UMANS' contact read the lists).
         BOOST_TEST(contact > 0.0);
         BOOST_TEST(gathered.agents().pos[0].x() > 1.0);
@@ -234,25 +241,16 @@ BOOST_AUTO_TEST_CASE(neighbours_withheld_from_components_that_do_not_read_them_c
     for (const char* name : {"SocialForcesAvoidance", "TtcaDca", "ORCA", "VanToll"}) BOOST_TEST(test::make(name)->readsQueryAgents(), name);
     BOOST_TEST(Silent().readsQueryAgents());  // a plugin that does not say gets its neighbours
     for (const bool umans : {false, true})
-    for (const WorldType world : {WorldType::Infinite, WorldType::Toric})
-        for (const int threads : {1, 2}) {
-            Simulation without(pressed(false, world, umans)), with(pressed(true, world, umans));
-            without.setThreads(threads);
-            with.setThreads(threads);
-            gProbeSeen = 0;
-            double pressure = 0;
-            for (int step = 0; step < 30; ++step) {
-                without.stepCoarse();
-                with.stepCoarse();
-                const AgentStore &a = without.agents(), &b = with.agents();
-                BOOST_TEST_REQUIRE(a.size() == b.size());
-                BOOST_TEST_REQUIRE(sameBits(a.pos, b.pos), "positions differ at step " << step << ", " << threads << " threads");
-                BOOST_TEST_REQUIRE(sameBits(a.vel, b.vel), "velocities differ at step " << step << ", " << threads << " threads");
-                for (const Vec2& v : a.contactAccel) pressure = std::max(pressure, v.norm());
+        for (const WorldType world : {WorldType::Infinite, WorldType::Toric})
+            for (const int threads : {1, 2}) {
+                Simulation without(pressed(false, world, umans)), with(pressed(true, world, umans));
+                without.setThreads(threads);
+                with.setThreads(threads);
+                gProbeSeen = 0;
+                const double contact = stepAlike(without, with, 30, threads);
+                // The probe saw the neighbours (so they were gathered for it), and the crowd is
+                // dense enough that bodies touch (ContactForces' or UMANS' contact acts).
+                BOOST_TEST(gProbeSeen.load() > 400L * 30 * 8);
+                BOOST_TEST(contact > 0.0);
             }
-            // The probe saw the neighbours (so they were gathered for it), and the crowd is dense
-            // enough that bodies touch (ContactForces' or UMANS' contact acts).
-            BOOST_TEST(gProbeSeen.load() > 400L * 30 * 8);
-            BOOST_TEST(pressure > 0.0);
-        }
 }

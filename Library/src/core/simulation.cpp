@@ -69,19 +69,18 @@ Simulation::Simulation(ScenarioSpec specIn)
         for (const PolicyStep& s : p.steps())
             for (const auto& e : s.components()) needStoredLists_ = needStoredLists_ || e.component->readsStepLists();
     storeLists_ = needStoredLists_;
-    // A policy whose components all read their neighbours elsewhere (SPH, ContactForces: the
-    // stored lists by index) gets no AgentQuery::agents, unless UMANS' contact reads them.
     for (const Policy& p : policies_) {
-        bool reads = p.contactForceScale() > 0;
-        for (const PolicyStep& s : p.steps())
-            for (const auto& e : s.components()) reads = reads || e.component->readsQueryAgents();
-        queryAgents_.push_back(reads ? 1 : 0);
-    }
-    // Per-agent step buffers that only some policies need (none is kept at a million agents
-    // when nobody uses it: 16 bytes each per agent).
-    for (const Policy& p : policies_) {
+        // Per-agent step buffers that only some policies need (none is kept at a million agents
+        // when nobody uses it: 16 bytes each per agent).
         anyUmansContact_ = anyUmansContact_ || p.contactForceScale() > 0;
-        for (const PolicyStep& s : p.steps()) anyCoarseStep_ = anyCoarseStep_ || s.timing() == StepTiming::Coarse;
+        // A policy whose components all read their neighbours elsewhere (SPH, ContactForces: the
+        // stored lists by index) gets no AgentQuery::agents, unless UMANS' contact reads them.
+        bool reads = p.contactForceScale() > 0;
+        for (const PolicyStep& s : p.steps()) {
+            anyCoarseStep_ = anyCoarseStep_ || s.timing() == StepTiming::Coarse;
+            for (const auto& e : s.components()) reads = reads || e.component->readsQueryAgents();
+        }
+        queryAgents_.push_back(reads ? 1 : 0);
     }
 
     totalAgents_ = spec.agents.size();
