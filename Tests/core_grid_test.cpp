@@ -278,7 +278,7 @@ BOOST_AUTO_TEST_CASE(segment_grid_readied_for_a_range_matches_brute_force) {
     for (const Segment& s : segs)
         for (const Vec2& end : {s.a, s.b})
             for (const double r : {1.0, 5.0})
-                for (const Vec2 d : {Vec2(r, 0), Vec2(-r, 0), Vec2(0, r), Vec2(0, -r), Vec2(0.7 * r, 0.7 * r)})
+                for (const Vec2& d : {Vec2(r, 0), Vec2(-r, 0), Vec2(0, r), Vec2(0, -r), Vec2(0.7 * r, 0.7 * r)})
                     points.push_back(end + d);
     points.emplace_back(1e6, 0);
     points.emplace_back(std::nan(""), 0);
@@ -318,7 +318,7 @@ BOOST_AUTO_TEST_CASE(segment_grid_readied_lists_drop_and_keep_whole_cells_exactl
     // cell's limits) must still get exactly the segments within the radius, here and far from
     // the origin, where the rounding margins are larger. (One check per scene: some 400,000
     // queries, which Boost.Test's checks one by one would slow tenfold under the sanitizers.)
-    for (const Vec2 shift : {Vec2(0, 0), Vec2(1e5, -3e5)}) {
+    for (const Vec2& shift : {Vec2(0, 0), Vec2(1e5, -3e5)}) {
         Rng rng(11);
         std::vector<Segment> segs = randomSegments(rng, 60, 10, 4);
         segs.push_back(Segment{Vec2(-12, 9), Vec2(12, 9.5), 60});  // a long wall

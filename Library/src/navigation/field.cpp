@@ -671,6 +671,13 @@ namespace {
 std::atomic<int> gSamplePath{cpu::hasAvx512() ? 1 : 0};
 
 #ifdef CH_NAV_X86
+// GCC 12's <avx512fintrin.h> starts many intrinsics from _mm512_undefined_*(), a variable
+// initialised with itself, which its -Wuninitialized then reports as used uninitialised once the
+// intrinsic is inlined here (a false positive: the lanes are all written). Silenced for these two
+// functions only.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wuninitialized"
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 /// probe() in eight lanes (lanes ≥ count left out). Positions whose cell numbers would not fit an
 /// int (|q| ≥ 2^30 cells) lie far off any grid: left out of inGrid, as probe() leaves them.
 CH_NAV_AVX512 void probe8Avx512(const Vec2* pos, int count, const Vec2& origin, double h, int nx, int ny,
@@ -777,6 +784,7 @@ CH_NAV_AVX512 unsigned shortWay8(const float* const* blocks, unsigned lanesIn, s
     _mm512_storeu_pd(dist, d);
     return ok;
 }
+#pragma GCC diagnostic pop
 #endif
 
 }  // namespace

@@ -191,7 +191,7 @@ private:
     /// (lists not stored) the lists gathered now into `scratch` (the calling thread's own). With
     /// `agents` false and the lists stored, q.agents is left empty (no component of i's policy
     /// reads it, Component::readsQueryAgents); q.segments is set either way.
-    void gatherQuery(std::size_t i, AgentQuery& q, NeighbourLists::Scratch& scratch, bool agents = true) const;
+    void gatherQuery(std::size_t i, AgentQuery& q, NeighbourLists::Scratch& scratch, bool agents) const;
     void removeFinished();
     /// grid_'s cell size for a largest neighbourhood radius `range`: half of it for short ranges
     /// (< NeighbourLists::kFineGridFrom: SPH, contact), the range itself for long ones (whose
