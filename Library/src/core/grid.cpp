@@ -269,8 +269,10 @@ void BoxIndex::build(const std::vector<Box>& boxes, double cellSize) {
 
 BoxIndex::Cells BoxIndex::cells(const Box& box) const {
     if (nx_ <= 0 || ny_ <= 0 || box.empty()) return {0, -1, 0, -1};
-    return {std::max(0, coordinate(box.lo.x(), origin_.x(), nx_)), std::min(nx_ - 1, coordinate(box.hi.x(), origin_.x(), nx_)),
-            std::max(0, coordinate(box.lo.y(), origin_.y(), ny_)), std::min(ny_ - 1, coordinate(box.hi.y(), origin_.y(), ny_))};
+    return {std::max(0, coordinate(box.lo.x(), origin_.x(), nx_)),
+            std::min(nx_ - 1, coordinate(box.hi.x(), origin_.x(), nx_)),
+            std::max(0, coordinate(box.lo.y(), origin_.y(), ny_)),
+            std::min(ny_ - 1, coordinate(box.hi.y(), origin_.y(), ny_))};
 }
 
 void SegmentGrid::build(const std::vector<Segment>& segments, double cellSize) {
